@@ -1,0 +1,75 @@
+//! One episode of world × policy, recorded compactly for counting.
+
+use crate::policy::{Hhmm, Layout};
+use crate::rng::EngineRng;
+use crate::world::World;
+
+/// Runs one episode, writing step `t`'s `[y, d, m_1, ..., m_Λ]` at
+/// `record[t * width .. (t + 1) * width]` (`width = Layout::record_width`), and returns `V`.
+#[inline]
+pub fn run_recorded<W: World>(world: &W, policy: &Hhmm, rng: &mut EngineRng, record: &mut [u16]) -> f64 {
+    let width = policy.layout().record_width();
+    run_with(world, policy, rng, |t, y, d, memory, _| {
+        let r = &mut record[t * width..(t + 1) * width];
+        r[0] = y as u16;
+        r[1] = d as u16;
+        r[2..].copy_from_slice(memory);
+    })
+}
+
+/// Runs one episode and returns `V`, calling `visit(t, y_t, d_t, m[t], x_t)` at every step
+/// (`t` from 0), before the world moves.
+#[inline]
+pub fn run_with<W: World, F>(world: &W, policy: &Hhmm, rng: &mut EngineRng, mut visit: F) -> f64
+where
+    F: FnMut(usize, usize, usize, &[u16], &W::State),
+{
+    let mut memory = [0u16; 16];
+    let depth = policy.levels().len();
+    let mut heap;
+    let memory: &mut [u16] = if depth <= memory.len() {
+        &mut memory[..depth]
+    } else {
+        heap = vec![0u16; depth];
+        &mut heap
+    };
+    let mut state = world.reset(rng);
+    for t in 0..world.horizon() {
+        let y = world.observe(&state, rng);
+        let d = policy.step(y, memory, t == 0, rng);
+        visit(t, y, d, memory, &state);
+        world.step(&mut state, d, rng);
+    }
+    world.reward(&state)
+}
+
+/// Adds one recorded episode's (condition, outcome) pairs to `counts` (laid out as the
+/// policy's flat tables): the sufficient statistics of the CE update (SPEC §3).
+#[inline]
+pub fn count_episode(layout: &Layout, record: &[u16], counts: &mut [u32]) {
+    let width = layout.record_width();
+    let depth = layout.depth();
+    let tables = &layout.tables;
+    let (h0, h1) = (&tables[0], &tables[1]);
+    let u1 = layout.upper_size(1);
+    let mut previous: &[u16] = &[];
+    for step in record.chunks_exact(width) {
+        let (y, d, m) = (step[0] as usize, step[1] as usize, &step[2..]);
+        counts[h0.offset + m[0] as usize * h0.cols + d] += 1;
+        let u = if depth >= 2 { m[1] as usize } else { 0 };
+        counts[h1.offset + (y * u1 + u) * h1.cols + m[0] as usize] += 1;
+        for l in 2..=depth {
+            let u = if l < depth { m[l] as usize } else { 0 };
+            let outcome = m[l - 1] as usize;
+            if previous.is_empty() {
+                let t = &tables[Layout::start_table(l)];
+                counts[t.offset + u * t.cols + outcome] += 1;
+            } else {
+                let t = &tables[Layout::step_table(l)];
+                let row = previous[l - 2] as usize * layout.upper_size(l) + u;
+                counts[t.offset + row * t.cols + outcome] += 1;
+            }
+        }
+        previous = m;
+    }
+}

@@ -1,0 +1,51 @@
+//! The one error type of the engine; the CLI prints it, the Python bindings map it to exceptions.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in `ceworld`, each variant naming the bad value and what was
+/// expected.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// An argument outside its domain (`rho = 1.5`, `samples = 0`, a level of size 0, ...).
+    #[error("invalid {name}: {message}")]
+    InvalidArgument {
+        /// The argument's name as the user wrote it.
+        name: String,
+        /// What was wrong and what was expected.
+        message: String,
+    },
+    /// A policy whose shapes do not fit the world it is used with.
+    #[error("policy does not match the world: {0}")]
+    Mismatch(String),
+    /// A policy file that is not valid cehmm-policy JSON.
+    #[error("invalid policy file{}: {message}", path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default())]
+    PolicyFormat {
+        /// The file, when there is one.
+        path: Option<PathBuf>,
+        /// What is wrong, naming the key and the expected value.
+        message: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+}
+
+/// Result with the engine's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Shorthand for [`Error::InvalidArgument`].
+    pub fn invalid(name: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidArgument { name: name.into(), message: message.into() }
+    }
+
+    /// Shorthand for [`Error::PolicyFormat`] without a path (the loader adds it).
+    pub fn format(message: impl Into<String>) -> Self {
+        Error::PolicyFormat { path: None, message: message.into() }
+    }
+}

@@ -1,0 +1,218 @@
+//! Policy files: the JSON of SPEC §6 (`"format": "cehmm-policy", "version": 1`).
+
+use std::path::Path;
+
+use serde_json::{Map, Value, json};
+
+use crate::error::{Error, Result};
+use crate::policy::{Hhmm, Layout, TableShape};
+
+/// The `format` value of a policy file.
+pub const FORMAT: &str = "cehmm-policy";
+/// The `version` value this engine reads and writes.
+pub const VERSION: u64 = 1;
+
+/// A policy with the world it was made for and how it was made.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolicyFile {
+    /// The tables.
+    pub policy: Hhmm,
+    /// The `"world"` object: its name and every parameter.
+    pub world: Value,
+    /// The `"provenance"` object (seed, samples, rho, alpha, iterations, mean_reward, version).
+    pub provenance: Value,
+}
+
+/// Nests a flat row-major slice into JSON arrays of shape `dims`.
+fn nest(data: &[f64], dims: &[usize]) -> Value {
+    if dims.len() == 1 {
+        return Value::Array(data.iter().map(|&x| json!(x)).collect());
+    }
+    let inner: usize = dims[1..].iter().product();
+    Value::Array(data.chunks(inner.max(1)).take(dims[0]).map(|c| nest(c, &dims[1..])).collect())
+}
+
+/// Flattens nested JSON arrays, checking they have shape `dims`.
+fn flatten(value: &Value, dims: &[usize], path: &str, out: &mut Vec<f64>) -> Result<()> {
+    let Some(items) = value.as_array() else {
+        return Err(Error::format(format!("{path} is {} (expected an array of length {})", kind(value), dims[0])));
+    };
+    if items.len() != dims[0] {
+        return Err(Error::format(format!("{path} has length {} (expected {})", items.len(), dims[0])));
+    }
+    for (k, item) in items.iter().enumerate() {
+        let here = format!("{path}[{k}]");
+        if dims.len() == 1 {
+            match item.as_f64() {
+                Some(x) => out.push(x),
+                None => return Err(Error::format(format!("{here} is {} (expected a number)", kind(item)))),
+            }
+        } else {
+            flatten(item, &dims[1..], &here, out)?;
+        }
+    }
+    Ok(())
+}
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+impl PolicyFile {
+    /// The JSON document.
+    pub fn to_json(&self) -> Value {
+        let h = &self.policy;
+        let l = h.layout();
+        let table = |t: &TableShape| nest(&h.probs()[t.offset..t.offset + t.rows * t.cols], &t.dims);
+        let upper: Vec<Value> = (2..=l.depth())
+            .map(|lv| {
+                json!({
+                    "start": table(&l.tables[Layout::start_table(lv)]),
+                    "step": table(&l.tables[Layout::step_table(lv)]),
+                })
+            })
+            .collect();
+        json!({
+            "format": FORMAT,
+            "version": VERSION,
+            "n_obs": l.n_obs,
+            "n_actions": l.n_actions,
+            "levels": l.levels,
+            "world": self.world,
+            "policy": { "h0": table(&l.tables[0]), "h1": table(&l.tables[1]), "upper": upper },
+            "provenance": self.provenance,
+        })
+    }
+
+    /// Reads a document, checking format, version, shapes and every row (SPEC §6); unknown
+    /// keys are ignored.
+    pub fn from_json(doc: &Value) -> Result<PolicyFile> {
+        let obj = doc
+            .as_object()
+            .ok_or_else(|| Error::format(format!("the document is {} (expected an object)", kind(doc))))?;
+        let format = obj.get("format").and_then(Value::as_str);
+        if format != Some(FORMAT) {
+            return Err(Error::format(format!("format is {} (expected \"{FORMAT}\")", show(obj.get("format")))));
+        }
+        if obj.get("version").and_then(Value::as_u64) != Some(VERSION) {
+            return Err(Error::format(format!("version is {} (expected {VERSION})", show(obj.get("version")))));
+        }
+        let size = |key: &str| -> Result<usize> {
+            obj.get(key)
+                .and_then(Value::as_u64)
+                .map(|v| v as usize)
+                .ok_or_else(|| Error::format(format!("{key} is {} (expected a positive integer)", show(obj.get(key)))))
+        };
+        let (n_obs, n_actions) = (size("n_obs")?, size("n_actions")?);
+        let levels: Vec<usize> = obj
+            .get("levels")
+            .and_then(Value::as_array)
+            .and_then(|a| a.iter().map(|v| v.as_u64().map(|x| x as usize)).collect::<Option<Vec<_>>>())
+            .ok_or_else(|| {
+                Error::format(format!("levels is {} (expected a list of sizes like [16, 16])", show(obj.get("levels"))))
+            })?;
+        let layout = Layout::new(n_obs, n_actions, &levels).map_err(|e| Error::format(e.to_string()))?;
+        let tables = obj
+            .get("policy")
+            .and_then(Value::as_object)
+            .ok_or_else(|| Error::format("policy is missing or not an object"))?;
+        let mut probs = Vec::with_capacity(layout.len);
+        for t in &layout.tables[..2] {
+            let v = tables.get(&t.name).ok_or_else(|| Error::format(format!("policy.{} is missing", t.name)))?;
+            flatten(v, &t.dims, &format!("policy.{}", t.name), &mut probs)?;
+        }
+        let upper = match tables.get("upper") {
+            Some(Value::Array(a)) => a.as_slice(),
+            None if levels.len() == 1 => &[],
+            other => return Err(Error::format(format!("policy.upper is {} (expected a list)", show(other)))),
+        };
+        if upper.len() != levels.len() - 1 {
+            return Err(Error::format(format!(
+                "policy.upper has {} entries (expected {} for levels {levels:?})",
+                upper.len(),
+                levels.len() - 1
+            )));
+        }
+        for (k, entry) in upper.iter().enumerate() {
+            let level = k + 2;
+            for (key, index) in [("start", Layout::start_table(level)), ("step", Layout::step_table(level))] {
+                let path = format!("policy.upper[{k}].{key}");
+                let v = entry.get(key).ok_or_else(|| Error::format(format!("{path} is missing")))?;
+                flatten(v, &layout.tables[index].dims, &path, &mut probs)?;
+            }
+        }
+        let policy = Hhmm::from_flat(layout, probs)?;
+        Ok(PolicyFile {
+            policy,
+            world: obj.get("world").cloned().unwrap_or(Value::Object(Map::new())),
+            provenance: obj.get("provenance").cloned().unwrap_or(Value::Object(Map::new())),
+        })
+    }
+
+    /// Writes the file (pretty JSON), through a temporary file so a crash never leaves half a file.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let io = |source| Error::Io { path: path.to_path_buf(), source };
+        let text = serde_json::to_string(&self.to_json()).expect("JSON values serialise");
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, text).map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+
+    /// Reads and checks a file.
+    pub fn load(path: impl AsRef<Path>) -> Result<PolicyFile> {
+        let path = path.as_ref();
+        let with_path = |e: Error| match e {
+            Error::PolicyFormat { message, .. } => Error::PolicyFormat { path: Some(path.to_path_buf()), message },
+            other => other,
+        };
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        let doc: Value = serde_json::from_str(&text).map_err(|e| with_path(Error::format(format!("not JSON: {e}"))))?;
+        Self::from_json(&doc).map_err(with_path)
+    }
+}
+
+fn show(v: Option<&Value>) -> String {
+    match v {
+        None => "missing".into(),
+        Some(v) => {
+            let s = v.to_string();
+            if s.len() > 40 { format!("{}…", &s[..40]) } else { s }
+        }
+    }
+}
+
+impl PolicyFile {
+    /// The file of an optimisation's best policy, with its provenance (SPEC §6).
+    pub fn from_result<W: crate::World>(world: &W, result: &crate::CeResult, config: &crate::CeConfig) -> PolicyFile {
+        let best = &result.history[result.best_iteration];
+        PolicyFile {
+            policy: result.policy.clone(),
+            world: world.to_json(),
+            provenance: json!({
+                "seed": config.seed,
+                "samples": config.samples,
+                "rho": config.rho,
+                "alpha": config.smoothing,
+                "patience": config.patience,
+                "iterations": result.history.len(),
+                "best_iteration": result.best_iteration,
+                "best_iteration_mean": best.mean,
+                "mean_reward": result.evaluation.mean,
+                "evaluation_episodes": result.evaluation.episodes,
+                "evaluation_std_error": result.evaluation.std_error,
+                "stop": result.stop.as_str(),
+                "interrupted": result.interrupted(),
+                "seconds": result.seconds,
+                "version": crate::VERSION,
+            }),
+        }
+    }
+}

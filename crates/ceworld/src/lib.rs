@@ -1,0 +1,39 @@
+//! # ceworld
+//!
+//! Cross-entropic learning of finite-memory policies for partially observable worlds, after
+//! Dambreville, "Cross-Entropic Learning of a Machine for the Decision in a Partially
+//! Observable Universe". A policy is a hierarchical HMM with input (observation) and output
+//! (decision); its tables are optimised by Rubinstein's cross-entropy method. The conventions
+//! are those of the project's `SPEC.md`.
+//!
+//! ```
+//! use ceworld::{CeConfig, TargetTracking, optimize, uniform_policy, Flow};
+//! let world = TargetTracking::new(1).unwrap();
+//! let config = CeConfig { samples: 200, max_iterations: Some(3), eval_episodes: 100, ..CeConfig::default() };
+//! let result = optimize(&world, uniform_policy(&world, &[4]).unwrap(), &config, |_| Flow::Continue).unwrap();
+//! assert_eq!(result.history.len(), 3);
+//! ```
+
+pub mod episode;
+pub mod error;
+pub mod evaluate;
+pub mod io;
+pub mod optimize;
+pub mod policy;
+pub mod rng;
+pub mod tracking;
+pub mod world;
+
+pub use error::{Error, Result};
+pub use evaluate::{Evaluation, evaluate};
+pub use io::PolicyFile;
+pub use optimize::{
+    CeConfig, CeResult, Flow, IterationRecord, STRONG_PATIENCE, StopReason, WEAK_PATIENCE, optimize, random_policy,
+    uniform_policy,
+};
+pub use policy::{Hhmm, Layout};
+pub use tracking::{TargetTracking, TrackingParams};
+pub use world::World;
+
+/// The engine's version, written into policy files.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

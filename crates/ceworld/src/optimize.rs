@@ -1,0 +1,337 @@
+//! Rubinstein's cross-entropy method over HHMM policies (SPEC §3).
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::episode::{count_episode, run_recorded};
+use crate::error::{Error, Result};
+use crate::evaluate::{Evaluation, check_fits, evaluate};
+use crate::policy::Hhmm;
+use crate::rng::{Purpose, stream, stream_key};
+use crate::world::World;
+
+/// The settings of one optimisation; `Default` gives the paper's (N = 1000, ρ = 0.5, α = 1,
+/// weak criterion).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CeConfig {
+    /// Episodes drawn per iteration, `N`.
+    pub samples: usize,
+    /// Selective rate ρ in (0, 1): the best `ceil(ρN)` episodes are kept.
+    pub rho: f64,
+    /// Smoothing α in (0, 1]: `h := α·new + (1 − α)·h`; 1 is the paper's basic CE.
+    pub smoothing: f64,
+    /// Stop after this many consecutive unsuccessful iterations (weak 100, strong 500).
+    pub patience: usize,
+    /// Stop after this many iterations.
+    pub max_iterations: Option<usize>,
+    /// Stop after this many seconds (checked between iterations).
+    pub time_limit: Option<f64>,
+    /// Stop as soon as an iteration's mean reward reaches this value.
+    pub target: Option<f64>,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Worker threads (`None`: one per core). Results do not depend on it.
+    pub threads: Option<usize>,
+    /// Fresh episodes used to evaluate the returned policy.
+    pub eval_episodes: usize,
+}
+
+impl Default for CeConfig {
+    fn default() -> Self {
+        CeConfig {
+            samples: 1000,
+            rho: 0.5,
+            smoothing: 1.0,
+            patience: 100,
+            max_iterations: None,
+            time_limit: None,
+            target: None,
+            seed: 0,
+            threads: None,
+            eval_episodes: 10_000,
+        }
+    }
+}
+
+/// The paper's weak convergence criterion: 100 unsuccessful iterations in a row.
+pub const WEAK_PATIENCE: usize = 100;
+/// The paper's strong convergence criterion: 500 unsuccessful iterations in a row.
+pub const STRONG_PATIENCE: usize = 500;
+
+impl CeConfig {
+    /// Number of elite episodes, `ceil(ρN)`.
+    pub fn elite_count(&self) -> usize {
+        ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)
+    }
+
+    /// Checks every setting, naming the bad one.
+    pub fn validate(&self) -> Result<()> {
+        if self.samples == 0 {
+            return Err(Error::invalid("samples", "0 (expected at least 1 episode per iteration)"));
+        }
+        if !(self.rho > 0.0 && self.rho < 1.0) {
+            return Err(Error::invalid("rho", format!("{} (expected 0 < rho < 1)", self.rho)));
+        }
+        if !(self.smoothing > 0.0 && self.smoothing <= 1.0) {
+            return Err(Error::invalid("smoothing", format!("{} (expected 0 < smoothing <= 1)", self.smoothing)));
+        }
+        if self.patience == 0 {
+            return Err(Error::invalid("patience", "0 (expected at least 1 iteration)"));
+        }
+        if self.max_iterations == Some(0) {
+            return Err(Error::invalid("max_iterations", "0 (expected at least 1, or none)"));
+        }
+        if let Some(t) = self.time_limit {
+            if !(t > 0.0) {
+                return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
+            }
+        }
+        if let Some(t) = self.target {
+            if t.is_nan() {
+                return Err(Error::invalid("target", "NaN (expected a reward)"));
+            }
+        }
+        if self.threads == Some(0) {
+            return Err(Error::invalid("threads", "0 (expected at least 1, or none for one per core)"));
+        }
+        if self.eval_episodes == 0 {
+            return Err(Error::invalid("eval_episodes", "0 (expected at least 1)"));
+        }
+        Ok(())
+    }
+}
+
+/// One iteration's statistics.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct IterationRecord {
+    /// Iteration number, from 0.
+    pub iteration: usize,
+    /// Mean reward of the N episodes.
+    pub mean: f64,
+    /// Best reward of the N episodes.
+    pub best: f64,
+    /// Smallest reward kept in the elite.
+    pub elite_threshold: f64,
+    /// Mean reward of the elite.
+    pub elite_mean: f64,
+    /// Seconds since the optimisation started, at the end of the iteration.
+    pub seconds: f64,
+    /// Whether the mean beat every earlier iteration's.
+    pub successful: bool,
+}
+
+/// Why an optimisation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// `patience` unsuccessful iterations in a row (converged).
+    Patience,
+    /// `max_iterations` reached.
+    MaxIterations,
+    /// `time_limit` reached.
+    TimeLimit,
+    /// An iteration's mean reached `target`.
+    Target,
+    /// The caller asked to stop (Ctrl-C).
+    Interrupted,
+}
+
+impl StopReason {
+    /// The snake-case name (`"patience"`, `"interrupted"`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::Patience => "patience",
+            StopReason::MaxIterations => "max_iterations",
+            StopReason::TimeLimit => "time_limit",
+            StopReason::Target => "target",
+            StopReason::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// What the caller's observer says after each iteration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    /// Go on.
+    Continue,
+    /// Stop now and return what there is (marked as interrupted).
+    Stop,
+}
+
+/// The outcome of an optimisation.
+#[derive(Clone, Debug)]
+pub struct CeResult {
+    /// The policy that drew the best iteration (highest mean reward).
+    pub policy: Hhmm,
+    /// The policy after the last update.
+    pub last_policy: Hhmm,
+    /// Index of the best iteration.
+    pub best_iteration: usize,
+    /// Per-iteration statistics.
+    pub history: Vec<IterationRecord>,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// `policy` evaluated on fresh episodes (an unbiased estimate, unlike the best mean).
+    pub evaluation: Evaluation,
+    /// Wall seconds, evaluation included.
+    pub seconds: f64,
+}
+
+impl CeResult {
+    /// Whether the caller stopped it early.
+    pub fn interrupted(&self) -> bool {
+        self.stop == StopReason::Interrupted
+    }
+}
+
+/// A rayon pool of `threads` workers (all cores when `None`).
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Error::invalid("threads", "0 (expected at least 1, or none for one per core)"));
+        }
+        builder = builder.num_threads(n);
+    }
+    builder.build().map_err(|e| Error::invalid("threads", e.to_string()))
+}
+
+/// Runs the cross-entropy method from `initial` until a stopping rule holds, calling
+/// `observer` after every iteration (on the calling thread).
+pub fn optimize<W: World>(
+    world: &W,
+    initial: Hhmm,
+    config: &CeConfig,
+    mut observer: impl FnMut(&IterationRecord) -> Flow,
+) -> Result<CeResult> {
+    config.validate()?;
+    check_fits(world, &initial)?;
+    let pool = thread_pool(config.threads)?;
+    let layout = initial.layout().clone();
+    let horizon = world.horizon();
+    let stride = horizon * layout.record_width();
+    let (n, elite_count) = (config.samples, config.elite_count());
+    if elite_count.saturating_mul(horizon) > u32::MAX as usize {
+        return Err(Error::invalid("samples", format!("{n}: ceil(rho·N)·T overflows the 32-bit counters")));
+    }
+    let started = Instant::now();
+    let mut policy = initial;
+    let mut records = vec![0u16; n * stride];
+    let mut rewards = vec![0.0f64; n];
+    let mut keys = vec![0u64; n];
+    let mut order: Vec<usize> = (0..n).collect();
+    let mut history = Vec::new();
+    let mut best: Option<(f64, usize, Hhmm)> = None;
+    let mut unsuccessful = 0;
+    let chunk = elite_count.div_ceil(pool.current_num_threads()).max(1);
+    let stop = loop {
+        let iteration = history.len();
+        let seed = config.seed;
+        pool.install(|| {
+            records.par_chunks_mut(stride).zip(rewards.par_iter_mut()).enumerate().for_each(|(k, (record, reward))| {
+                let mut rng = stream(seed, Purpose::Optimise, iteration as u64, k as u64);
+                *reward = run_recorded(world, &policy, &mut rng, record);
+            })
+        });
+        for (k, key) in keys.iter_mut().enumerate() {
+            *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
+        }
+        order.sort_unstable_by(|&a, &b| rewards[b].total_cmp(&rewards[a]).then(keys[a].cmp(&keys[b])));
+        let elite = &order[..elite_count];
+        let counts = pool.install(|| {
+            elite
+                .par_chunks(chunk)
+                .map(|episodes| {
+                    let mut counts = vec![0u32; layout.len];
+                    for &k in episodes {
+                        count_episode(&layout, &records[k * stride..(k + 1) * stride], &mut counts);
+                    }
+                    counts
+                })
+                .reduce_with(|mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                    a
+                })
+                .expect("the elite is never empty")
+        });
+
+        let mean = rewards.iter().sum::<f64>() / n as f64;
+        let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
+        if successful {
+            best = Some((mean, iteration, policy.clone()));
+            unsuccessful = 0;
+        } else {
+            unsuccessful += 1;
+        }
+        update(&mut policy, &counts, config.smoothing);
+        let record = IterationRecord {
+            iteration,
+            mean,
+            best: rewards[order[0]],
+            elite_threshold: rewards[elite[elite_count - 1]],
+            elite_mean: elite.iter().map(|&k| rewards[k]).sum::<f64>() / elite_count as f64,
+            seconds: started.elapsed().as_secs_f64(),
+            successful,
+        };
+        history.push(record.clone());
+        if observer(&record) == Flow::Stop {
+            break StopReason::Interrupted;
+        }
+        if config.target.is_some_and(|t| mean >= t) {
+            break StopReason::Target;
+        }
+        if unsuccessful >= config.patience {
+            break StopReason::Patience;
+        }
+        if config.max_iterations.is_some_and(|m| history.len() >= m) {
+            break StopReason::MaxIterations;
+        }
+        if config.time_limit.is_some_and(|t| record.seconds >= t) {
+            break StopReason::TimeLimit;
+        }
+    };
+    let (_, best_iteration, best_policy) = best.expect("at least one iteration ran");
+    let evaluation = pool.install(|| evaluate(world, &best_policy, config.eval_episodes, config.seed))?;
+    Ok(CeResult {
+        policy: best_policy,
+        last_policy: policy,
+        best_iteration,
+        history,
+        stop,
+        evaluation,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The CE update: each row with counts becomes `α·counts/total + (1 − α)·old`; rows without
+/// counts keep their values.
+pub fn update(policy: &mut Hhmm, counts: &[u32], smoothing: f64) {
+    let tables = policy.layout().tables.clone();
+    let probs = policy.probs_mut();
+    for t in &tables {
+        let range = t.offset..t.offset + t.rows * t.cols;
+        for (row, c) in probs[range.clone()].chunks_mut(t.cols).zip(counts[range].chunks(t.cols)) {
+            let total: u64 = c.iter().map(|&x| x as u64).sum();
+            if total == 0 {
+                continue;
+            }
+            let inv = 1.0 / total as f64;
+            for (p, &x) in row.iter_mut().zip(c) {
+                *p = smoothing * (x as f64 * inv) + (1.0 - smoothing) * *p;
+            }
+        }
+    }
+    policy.recumulate();
+}
+
+/// A uniform policy for `levels` sized for `world`.
+pub fn uniform_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
+    Hhmm::uniform(world.n_observations(), world.n_decisions(), levels)
+}
+
+/// A random policy for `levels` sized for `world`, drawn from `seed`.
+pub fn random_policy<W: World>(world: &W, levels: &[usize], seed: u64) -> Result<Hhmm> {
+    Hhmm::random(world.n_observations(), world.n_decisions(), levels, &mut stream(seed, Purpose::Init, 0, 0))
+}

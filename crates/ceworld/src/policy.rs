@@ -1,0 +1,366 @@
+//! The policy family: a hierarchical HMM with input and output (SPEC §2).
+//!
+//! Every conditional table is a block of rows in one flat `Vec<f64>`; rows are also kept
+//! pre-cumulated for sampling. Table order: `h0`, `h1`, then for each level `l = 2..=Λ` its
+//! `start` and `step` tables. Row layouts follow the policy file (SPEC §6): `h0[m1]`,
+//! `h1[y][u]`, `start[u]`, `step[p][u]` flattened row-major.
+
+use rand::{Rng, RngExt};
+
+use crate::error::{Error, Result};
+use crate::rng::EngineRng;
+
+/// Largest memory size of one level (trajectories store states as `u16`).
+pub const MAX_LEVEL_SIZE: usize = 65_535;
+
+/// Where one conditional table sits in the flat parameter vector.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TableShape {
+    /// `"h0"`, `"h1"`, `"start2"`, `"step2"`, ... (level number after the kind).
+    pub name: String,
+    /// The table's shape as in the policy file; the last axis is the outcome.
+    pub dims: Vec<usize>,
+    /// Number of conditioning rows (product of all axes but the last).
+    pub rows: usize,
+    /// Number of outcomes per row (the last axis).
+    pub cols: usize,
+    /// Index of the table's first entry in the flat vector.
+    pub offset: usize,
+}
+
+/// The sizes that fix a policy's tables.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Number of observations `Y`.
+    pub n_obs: usize,
+    /// Number of decisions `D`.
+    pub n_actions: usize,
+    /// Memory sizes `|M_1|, ..., |M_Λ|`.
+    pub levels: Vec<usize>,
+    /// The tables, in the order `h0, h1, start2, step2, start3, step3, ...`.
+    pub tables: Vec<TableShape>,
+    /// Total number of entries.
+    pub len: usize,
+}
+
+impl Layout {
+    /// The layout for `levels` (bottom level first) in a world with `n_obs` observations and
+    /// `n_actions` decisions; every size must be in `1..=65535`.
+    pub fn new(n_obs: usize, n_actions: usize, levels: &[usize]) -> Result<Layout> {
+        if levels.is_empty() {
+            return Err(Error::invalid("levels", "[] (expected at least one level, e.g. [16])"));
+        }
+        for (l, &size) in levels.iter().enumerate() {
+            if size == 0 || size > MAX_LEVEL_SIZE {
+                return Err(Error::invalid(
+                    "levels",
+                    format!("{levels:?}: level {} has size {size} (expected 1..={MAX_LEVEL_SIZE})", l + 1),
+                ));
+            }
+        }
+        for (name, v) in [("n_obs", n_obs), ("n_actions", n_actions)] {
+            if v == 0 || v > MAX_LEVEL_SIZE {
+                return Err(Error::invalid(name, format!("{v} (expected 1..={MAX_LEVEL_SIZE})")));
+            }
+        }
+        let mut tables = Vec::with_capacity(2 * levels.len());
+        let mut offset = 0;
+        let mut push = |name: String, dims: Vec<usize>| {
+            let cols = *dims.last().unwrap();
+            let rows = dims[..dims.len() - 1].iter().product::<usize>();
+            tables.push(TableShape { name, dims, rows, cols, offset });
+            offset += rows * cols;
+        };
+        let lambda = levels.len();
+        let upper = |l: usize| if l < lambda { levels[l] } else { 1 }; // |M_{l+1}|, 1-based l
+        push("h0".into(), vec![levels[0], n_actions]);
+        push("h1".into(), vec![n_obs, upper(1), levels[0]]);
+        for l in 2..=lambda {
+            push(format!("start{l}"), vec![upper(l), levels[l - 1]]);
+            push(format!("step{l}"), vec![levels[l - 2], upper(l), levels[l - 1]]);
+        }
+        Ok(Layout { n_obs, n_actions, levels: levels.to_vec(), tables, len: offset })
+    }
+
+    /// Number of levels `Λ`.
+    pub fn depth(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// The paper's count of free parameters, start tables excluded (SPEC §2).
+    pub fn parameter_count(&self) -> usize {
+        let m = &self.levels;
+        let upper = |l: usize| if l < m.len() { m[l] } else { 1 };
+        let mut n = (self.n_actions - 1) * m[0] + (m[0] - 1) * self.n_obs * upper(1);
+        for l in 2..=m.len() {
+            n += (m[l - 1] - 1) * m[l - 2] * upper(l);
+        }
+        n
+    }
+
+    /// Size of the upper condition of level `l` (1-based): `|M_{l+1}|`, or 1 at the top.
+    #[inline]
+    pub fn upper_size(&self, l: usize) -> usize {
+        if l < self.levels.len() { self.levels[l] } else { 1 }
+    }
+
+    /// Index of the `start` table of level `l >= 2`.
+    #[inline]
+    pub fn start_table(l: usize) -> usize {
+        2 * l - 2
+    }
+
+    /// Index of the `step` table of level `l >= 2`.
+    #[inline]
+    pub fn step_table(l: usize) -> usize {
+        2 * l - 1
+    }
+
+    /// Numbers stored per step of a recorded trajectory: `y`, `d`, then `m_1..m_Λ`.
+    #[inline]
+    pub fn record_width(&self) -> usize {
+        2 + self.levels.len()
+    }
+}
+
+/// A hierarchical HMM policy: the tables and their cumulated rows.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hhmm {
+    layout: Layout,
+    probs: Vec<f64>,
+    cumulative: Vec<f64>,
+}
+
+impl Hhmm {
+    /// The policy whose every row is uniform (the CE starting point).
+    pub fn uniform(n_obs: usize, n_actions: usize, levels: &[usize]) -> Result<Hhmm> {
+        let layout = Layout::new(n_obs, n_actions, levels)?;
+        let mut probs = vec![0.0; layout.len];
+        for t in &layout.tables {
+            probs[t.offset..t.offset + t.rows * t.cols].fill(1.0 / t.cols as f64);
+        }
+        Ok(Self::from_parts(layout, probs))
+    }
+
+    /// A policy whose rows are drawn at random (each entry uniform in (0, 1], then normalised).
+    pub fn random(n_obs: usize, n_actions: usize, levels: &[usize], rng: &mut EngineRng) -> Result<Hhmm> {
+        let layout = Layout::new(n_obs, n_actions, levels)?;
+        let mut probs: Vec<f64> = (0..layout.len).map(|_| 1.0 - rng.random::<f64>()).collect();
+        for t in &layout.tables {
+            for row in probs[t.offset..t.offset + t.rows * t.cols].chunks_mut(t.cols) {
+                let total: f64 = row.iter().sum();
+                row.iter_mut().for_each(|p| *p /= total);
+            }
+        }
+        Ok(Self::from_parts(layout, probs))
+    }
+
+    /// A policy from its flat table entries, checked: every entry finite and non-negative,
+    /// every row summing to 1 within `1e-6`.
+    pub fn from_flat(layout: Layout, probs: Vec<f64>) -> Result<Hhmm> {
+        if probs.len() != layout.len {
+            return Err(Error::format(format!("{} table entries (expected {})", probs.len(), layout.len)));
+        }
+        for t in &layout.tables {
+            for (r, row) in probs[t.offset..t.offset + t.rows * t.cols].chunks(t.cols).enumerate() {
+                let at = || row_name(t, r);
+                if let Some((k, p)) = row.iter().enumerate().find(|(_, p)| !p.is_finite() || **p < 0.0) {
+                    return Err(Error::format(format!("{}[{k}] = {p} (expected a finite probability >= 0)", at())));
+                }
+                let total: f64 = row.iter().sum();
+                if (total - 1.0).abs() > 1e-6 {
+                    return Err(Error::format(format!("row {} sums to {total} (expected 1 within 1e-6)", at())));
+                }
+            }
+        }
+        Ok(Self::from_parts(layout, probs))
+    }
+
+    fn from_parts(layout: Layout, probs: Vec<f64>) -> Hhmm {
+        let mut h = Hhmm { cumulative: vec![0.0; probs.len()], layout, probs };
+        h.recumulate();
+        h
+    }
+
+    /// Rebuilds the cumulated rows after the probabilities changed.
+    pub(crate) fn recumulate(&mut self) {
+        for t in &self.layout.tables {
+            let range = t.offset..t.offset + t.rows * t.cols;
+            for (p, c) in self.probs[range.clone()].chunks(t.cols).zip(self.cumulative[range].chunks_mut(t.cols)) {
+                let mut acc = 0.0;
+                for (x, y) in p.iter().zip(c.iter_mut()) {
+                    acc += x;
+                    *y = acc;
+                }
+            }
+        }
+    }
+
+    /// The layout (sizes and table positions).
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Memory sizes per level, bottom first.
+    pub fn levels(&self) -> &[usize] {
+        &self.layout.levels
+    }
+
+    /// All table entries, flat, in layout order.
+    pub fn probs(&self) -> &[f64] {
+        &self.probs
+    }
+
+    pub(crate) fn probs_mut(&mut self) -> &mut [f64] {
+        &mut self.probs
+    }
+
+    /// The entries of table `index` (see [`Layout::tables`]), row-major.
+    pub fn table(&self, index: usize) -> &[f64] {
+        let t = &self.layout.tables[index];
+        &self.probs[t.offset..t.offset + t.rows * t.cols]
+    }
+
+    /// Draws an outcome of row `row` of table `table`.
+    #[inline]
+    fn draw(&self, table: usize, row: usize, rng: &mut EngineRng) -> usize {
+        let t = &self.layout.tables[table];
+        let start = t.offset + row * t.cols;
+        let cum = &self.cumulative[start..start + t.cols];
+        // Scaling by the row's own total keeps sampling exact when rounding leaves it at 1 ± ε;
+        // the drawn index always has a positive probability.
+        let u = (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64) * cum[t.cols - 1];
+        if t.cols <= 32 {
+            cum.iter().position(|&c| u < c).unwrap_or(t.cols - 1)
+        } else {
+            cum.partition_point(|&c| c <= u).min(t.cols - 1)
+        }
+    }
+
+    /// One step of top-down sampling (SPEC §2). `memory[l - 1]` holds `m_l[t - 1]` on entry and
+    /// `m_l[t]` on return; `first` marks `t = 1`, where the start tables are used. Returns `d_t`.
+    #[inline]
+    pub fn step(&self, y: usize, memory: &mut [u16], first: bool, rng: &mut EngineRng) -> usize {
+        let lambda = memory.len();
+        for l in (2..=lambda).rev() {
+            let u = if l < lambda { memory[l] as usize } else { 0 };
+            let m = if first {
+                self.draw(Layout::start_table(l), u, rng)
+            } else {
+                let p = memory[l - 2] as usize;
+                self.draw(Layout::step_table(l), p * self.layout.upper_size(l) + u, rng)
+            };
+            memory[l - 1] = m as u16;
+        }
+        let u = if lambda >= 2 { memory[1] as usize } else { 0 };
+        let m1 = self.draw(1, y * self.layout.upper_size(1) + u, rng);
+        memory[0] = m1 as u16;
+        self.draw(0, m1, rng)
+    }
+}
+
+/// `"h1[3, 0]"`: a row's name for error messages.
+fn row_name(t: &TableShape, row: usize) -> String {
+    let mut index = Vec::with_capacity(t.dims.len() - 1);
+    let mut r = row;
+    for &d in t.dims[..t.dims.len() - 1].iter().rev() {
+        index.push(r % d);
+        r /= d;
+    }
+    index.reverse();
+    let index: Vec<String> = index.iter().map(|i| i.to_string()).collect();
+    format!("{}[{}]", t.name, index.join("]["))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Purpose, stream};
+
+    #[test]
+    fn parameter_count_matches_the_paper() {
+        assert_eq!(Layout::new(16, 16, &[16, 16]).unwrap().parameter_count(), 4320);
+        assert_eq!(Layout::new(16, 16, &[16, 2, 2, 2]).unwrap().parameter_count(), 758);
+        assert_eq!(Layout::new(16, 16, &[16]).unwrap().parameter_count(), 15 * 16 + 15 * 16);
+    }
+
+    #[test]
+    fn shapes_follow_the_policy_file() {
+        let l = Layout::new(16, 4, &[8, 3, 2]).unwrap();
+        let dims: Vec<_> = l.tables.iter().map(|t| (t.name.as_str(), t.dims.clone())).collect();
+        assert_eq!(
+            dims,
+            vec![
+                ("h0", vec![8, 4]),
+                ("h1", vec![16, 3, 8]),
+                ("start2", vec![2, 3]),
+                ("step2", vec![8, 2, 3]),
+                ("start3", vec![1, 2]),
+                ("step3", vec![3, 1, 2]),
+            ]
+        );
+        assert_eq!(l.len, 32 + 384 + 6 + 48 + 2 + 6);
+    }
+
+    #[test]
+    fn bad_levels_are_refused() {
+        assert!(Layout::new(16, 16, &[]).is_err());
+        let e = Layout::new(16, 16, &[16, 0]).unwrap_err().to_string();
+        assert!(e.contains("level 2 has size 0"), "{e}");
+        assert!(Layout::new(16, 16, &[70_000]).is_err());
+        assert!(Layout::new(16, 16, &[1024, 1024]).is_ok());
+    }
+
+    #[test]
+    fn from_flat_rejects_bad_rows() {
+        let u = Hhmm::uniform(2, 2, &[2]).unwrap();
+        let mut probs = u.probs().to_vec();
+        probs[0] = -0.5;
+        probs[1] = 1.5;
+        let e = Hhmm::from_flat(u.layout().clone(), probs).unwrap_err().to_string();
+        assert!(e.contains("h0[0][0] = -0.5"), "{e}");
+        let mut probs = u.probs().to_vec();
+        probs[5] = 0.7;
+        let e = Hhmm::from_flat(u.layout().clone(), probs).unwrap_err().to_string();
+        assert!(e.contains("h1[0][0] sums to 1.2"), "{e}");
+    }
+
+    /// Draw frequencies of a fixed row against its probabilities: Pearson's chi-square with a
+    /// fixed seed, below the 0.999 quantile of chi2(k - 1).
+    #[test]
+    fn draw_frequencies_match_probabilities() {
+        for cols in [5usize, 40] {
+            let layout = Layout::new(1, cols, &[1]).unwrap();
+            let mut probs = vec![0.0; layout.len];
+            let weights: Vec<f64> = (0..cols).map(|k| if k % 4 == 3 { 0.0 } else { 1.0 + k as f64 }).collect();
+            let total: f64 = weights.iter().sum();
+            for (k, w) in weights.iter().enumerate() {
+                probs[k] = w / total;
+            }
+            probs[layout.tables[1].offset] = 1.0;
+            let h = Hhmm::from_flat(layout, probs.clone()).unwrap();
+            let mut rng = stream(42, Purpose::Optimise, 0, cols as u64);
+            let n = 200_000;
+            let mut counts = vec![0usize; cols];
+            let mut memory = [0u16];
+            for _ in 0..n {
+                counts[h.step(0, &mut memory, false, &mut rng)] += 1;
+            }
+            let mut chi2 = 0.0;
+            let mut dof = 0;
+            for k in 0..cols {
+                let expected = probs[k] * n as f64;
+                if expected == 0.0 {
+                    assert_eq!(counts[k], 0, "outcome {k} has probability 0");
+                } else {
+                    chi2 += (counts[k] as f64 - expected).powi(2) / expected;
+                    dof += 1;
+                }
+            }
+            // 0.999 quantiles of chi2(k): k = 3 -> 16.27, k = 29 -> 58.30.
+            let limit = if dof - 1 == 3 { 16.27 } else { 58.30 };
+            assert_eq!(dof - 1, if cols == 5 { 3 } else { 29 });
+            assert!(chi2 < limit, "chi2 = {chi2} with {} degrees of freedom", dof - 1);
+        }
+    }
+}

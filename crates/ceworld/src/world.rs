@@ -1,0 +1,39 @@
+//! The world interface: any episodic, partially observable world given only as a sampler
+//! (SPEC §1). Nothing here assumes a Markov or tabular world, nor an additive reward.
+
+use crate::rng::EngineRng;
+
+/// An episodic world that the optimiser can sample.
+///
+/// One episode runs, for `t = 1..=horizon()`: `observe` (emits `y_t`), then the policy draws
+/// `d_t`, then `step` (the world accounts for time `t` and moves to `t + 1`). After the last
+/// step, `reward` gives the episode's value `V`, which may depend on the whole episode: the
+/// state is free to carry whatever the reward needs.
+pub trait World: Sync {
+    /// The hidden state `x_t` plus whatever the reward needs to remember.
+    type State: Clone + Send;
+
+    /// Number of observations `Y` (values of `y_t` are `0..Y`).
+    fn n_observations(&self) -> usize;
+    /// Number of decisions `D` (values of `d_t` are `0..D`).
+    fn n_decisions(&self) -> usize;
+    /// Number of steps `T` of one episode.
+    fn horizon(&self) -> usize;
+    /// Draws the initial state `x_1`.
+    fn reset(&self, rng: &mut EngineRng) -> Self::State;
+    /// Emits `y_t` from the current state (may draw noise).
+    fn observe(&self, state: &Self::State, rng: &mut EngineRng) -> usize;
+    /// Accounts for step `t` with decision `d_t`, then moves the state to `t + 1`.
+    fn step(&self, state: &mut Self::State, decision: usize, rng: &mut EngineRng);
+    /// The episode's reward `V`, read after the last step.
+    fn reward(&self, state: &Self::State) -> f64;
+
+    /// Names of the numbers `describe` writes for one state (for rollouts and plots).
+    fn state_labels(&self) -> Vec<&'static str> {
+        Vec::new()
+    }
+    /// Writes the state as numbers, in the order of `state_labels`.
+    fn describe(&self, _state: &Self::State, _out: &mut Vec<i64>) {}
+    /// The world's name and every parameter, as stored in policy files (SPEC §6).
+    fn to_json(&self) -> serde_json::Value;
+}
