@@ -210,7 +210,6 @@ impl PolicyFile {
                 "evaluation_std_error": result.evaluation.std_error,
                 "stop": result.stop.as_str(),
                 "interrupted": result.interrupted(),
-                "seconds": result.seconds,
                 "version": crate::VERSION,
             }),
         }

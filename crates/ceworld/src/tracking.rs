@@ -386,3 +386,261 @@ impl World for TargetTracking {
         value
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Purpose, stream};
+
+    fn world(case: u8) -> TargetTracking {
+        TargetTracking::new(case).unwrap()
+    }
+
+    fn rng() -> EngineRng {
+        stream(7, Purpose::Optimise, 0, 0)
+    }
+
+    fn state(b: (i32, i32, u8), c: (i32, i32, u8), target: [i32; 2]) -> TrackingState {
+        TrackingState {
+            b: Mobile { i: b.0, j: b.1, heading: b.2 },
+            c: Mobile { i: c.0, j: c.1, heading: c.2 },
+            target,
+            score: 0,
+        }
+    }
+
+    #[test]
+    fn mobiles_start_in_the_down_corners_facing_down() {
+        let s = world(3).reset(&mut rng());
+        assert_eq!(s.b, Mobile { i: 0, j: 19, heading: DOWN });
+        assert_eq!(s.c, Mobile { i: 19, j: 19, heading: DOWN });
+        assert_eq!(s.score, 0);
+    }
+
+    #[test]
+    fn turns_change_the_heading_modulo_4() {
+        let m = Mobile { i: 5, j: 5, heading: UP };
+        assert_eq!(m.apply(TURN_LEFT, 20, 20).heading, LEFT);
+        assert_eq!(m.apply(TURN_RIGHT, 20, 20).heading, RIGHT);
+        let m = Mobile { heading: LEFT, ..m };
+        assert_eq!(m.apply(TURN_RIGHT, 20, 20).heading, UP);
+        assert_eq!(m.apply(TURN_LEFT, 20, 20).heading, DOWN);
+        assert_eq!((m.apply(TURN_LEFT, 20, 20).i, m.apply(TURN_LEFT, 20, 20).j), (5, 5), "turning does not move");
+    }
+
+    #[test]
+    fn forward_moves_one_cell_along_the_heading() {
+        for (heading, cell) in [(UP, (5, 4)), (RIGHT, (6, 5)), (DOWN, (5, 6)), (LEFT, (4, 5))] {
+            let m = Mobile { i: 5, j: 5, heading }.apply(FORWARD, 20, 20);
+            assert_eq!((m.i, m.j, m.heading), (cell.0, cell.1, heading));
+        }
+    }
+
+    #[test]
+    fn forward_off_the_grid_stays_put() {
+        for (i, j, heading) in [(0, 0, UP), (19, 3, RIGHT), (4, 19, DOWN), (0, 7, LEFT)] {
+            let m = Mobile { i, j, heading };
+            assert_eq!(m.apply(FORWARD, 20, 20), m);
+        }
+    }
+
+    #[test]
+    fn no_move_changes_nothing() {
+        let m = Mobile { i: 3, j: 8, heading: RIGHT };
+        assert_eq!(m.apply(NO_MOVE, 20, 20), m);
+    }
+
+    #[test]
+    fn joint_decision_is_4_a_b_plus_a_c() {
+        let w = world(1);
+        let mut s = w.reset(&mut rng());
+        // a_B = FORWARD (2) is useless facing down at the bottom row, so turn first: a_B = TURN_LEFT, a_C = TURN_RIGHT.
+        w.step(&mut s, 4 * TURN_LEFT + TURN_RIGHT, &mut rng());
+        assert_eq!((s.b.heading, s.c.heading), (RIGHT, LEFT));
+        w.step(&mut s, 4 * FORWARD + NO_MOVE, &mut rng());
+        assert_eq!((s.b.i, s.b.j, s.c.i, s.c.j), (1, 19, 19, 19));
+        w.step(&mut s, 4 * NO_MOVE + FORWARD, &mut rng());
+        assert_eq!((s.b.i, s.c.i), (1, 18));
+    }
+
+    #[test]
+    fn ahead_bit_is_strict_and_follows_the_heading() {
+        let at = |heading| Mobile { i: 10, j: 10, heading };
+        // target straight above, at the same row, and below
+        assert_eq!(at(UP).observe([10, 5], 3) & 1, 1);
+        assert_eq!(at(UP).observe([2, 10], 3) & 1, 0, "same row is not ahead");
+        assert_eq!(at(UP).observe([10, 15], 3) & 1, 0);
+        assert_eq!(at(RIGHT).observe([11, 0], 3) & 1, 1);
+        assert_eq!(at(RIGHT).observe([10, 0], 3) & 1, 0);
+        assert_eq!(at(DOWN).observe([0, 11], 3) & 1, 1);
+        assert_eq!(at(DOWN).observe([0, 10], 3) & 1, 0);
+        assert_eq!(at(LEFT).observe([9, 19], 3) & 1, 1);
+        assert_eq!(at(LEFT).observe([10, 19], 3) & 1, 0);
+    }
+
+    #[test]
+    fn near_bit_is_chebyshev_distance_below_3() {
+        let m = Mobile { i: 10, j: 10, heading: UP };
+        assert_eq!(m.observe([12, 8], 3) >> 1, 1, "d∞ = 2");
+        assert_eq!(m.observe([13, 10], 3) >> 1, 0, "d∞ = 3 is not near");
+        assert_eq!(m.observe([10, 10], 3) >> 1, 1, "same cell");
+    }
+
+    #[test]
+    fn joint_observation_is_obs_b_plus_4_obs_c() {
+        let w = world(3);
+        // B faces up with the target ahead and near (3); C faces up, target behind and far (0).
+        let s = state((10, 12, UP), (10, 0, UP), [10, 10]);
+        assert_eq!(w.observe(&s, &mut rng()), 3);
+        // C sees it ahead and near, B neither.
+        let s = state((0, 0, UP), (11, 9, DOWN), [10, 10]);
+        assert_eq!(w.observe(&s, &mut rng()), 4 * 3);
+        assert_eq!(w.n_observations(), 16);
+    }
+
+    #[test]
+    fn case_2_hides_the_observation() {
+        let w = world(2);
+        assert_eq!(w.n_observations(), 1);
+        let s = state((10, 12, UP), (10, 8, DOWN), [10, 10]);
+        assert_eq!(w.observe(&s, &mut rng()), 0);
+    }
+
+    #[test]
+    fn reward_counts_chebyshev_3_inclusive_for_either_mobile() {
+        let w = world(1);
+        let near_b = state((7, 13, UP), (19, 19, UP), [10, 10]);
+        let near_c = state((0, 19, UP), (13, 7, UP), [10, 10]);
+        let far = state((6, 10, UP), (14, 10, UP), [10, 10]);
+        assert!(w.encounter(&near_b) && w.encounter(&near_c));
+        assert!(!w.encounter(&far), "d∞ = 4 for both");
+    }
+
+    #[test]
+    fn reward_is_counted_before_the_mobiles_move() {
+        let w = world(1);
+        // B is at d∞ = 3 and steps away this turn: step t is still rewarded, t + 1 is not.
+        let mut s = state((7, 10, LEFT), (19, 19, DOWN), [10, 10]);
+        w.step(&mut s, 4 * FORWARD + NO_MOVE, &mut rng());
+        assert_eq!((s.score, s.b.i), (1, 6));
+        w.step(&mut s, 4 * NO_MOVE + NO_MOVE, &mut rng());
+        assert_eq!(s.score, 1);
+    }
+
+    #[test]
+    fn case_1_target_is_fixed_at_10_10() {
+        let w = world(1);
+        let mut r = rng();
+        let mut s = w.reset(&mut r);
+        assert_eq!(s.target, [10, 10]);
+        for t in 0..50 {
+            w.step(&mut s, t % 16, &mut r);
+            assert_eq!(s.target, [10, 10]);
+        }
+    }
+
+    #[test]
+    fn moving_target_starts_uniform_on_the_upper_half() {
+        let w = world(3);
+        let mut counts = vec![0u32; 400];
+        let n = 200_000;
+        for k in 0..n {
+            let s = w.reset(&mut stream(1, Purpose::Optimise, 0, k));
+            assert!((0..20).contains(&s.target[0]) && (0..=9).contains(&s.target[1]), "{:?}", s.target);
+            counts[(s.target[1] * 20 + s.target[0]) as usize] += 1;
+        }
+        let expected = n as f64 / 200.0;
+        let chi2: f64 = counts[..200].iter().map(|&c| (c as f64 - expected).powi(2) / expected).sum();
+        assert!(chi2 < 270.0, "chi2 = {chi2} on 199 degrees of freedom (0.9995 quantile ~ 270)");
+    }
+
+    /// Expected move probabilities of the target, from the rule of SPEC §4.
+    fn move_law(target: [i32; 2], b: [i32; 2], c: [i32; 2]) -> Vec<([i32; 2], f64)> {
+        let mut cells = Vec::new();
+        for j in target[1] - 1..=target[1] + 1 {
+            for i in target[0] - 1..=target[0] + 1 {
+                if (0..20).contains(&i) && (0..20).contains(&j) {
+                    let d2 = |m: [i32; 2]| ((i - m[0]).pow(2) + (j - m[1]).pow(2)) as f64;
+                    cells.push(([i, j], d2(b) + d2(c)));
+                }
+            }
+        }
+        let total: f64 = cells.iter().map(|c| c.1).sum();
+        cells.into_iter().map(|(c, w)| (c, w / total)).collect()
+    }
+
+    #[test]
+    fn target_moves_in_its_neighbourhood_proportionally_to_squared_distances() {
+        let w = world(3);
+        // interior (9 cells, staying put included) and a corner (4 cells)
+        for (target, b, c, limit) in [([5, 5], [0, 0], [9, 9], 26.12), ([0, 0], [3, 1], [19, 19], 16.27)] {
+            let law = move_law(target, b, c);
+            let mut r = stream(3, Purpose::Optimise, 0, 0);
+            let n = 200_000;
+            let mut counts = vec![0u32; law.len()];
+            for _ in 0..n {
+                let next = w.move_target(target, b, c, &mut r);
+                let k = law.iter().position(|(cell, _)| *cell == next).expect("a neighbour in the grid");
+                counts[k] += 1;
+            }
+            let chi2: f64 =
+                law.iter().zip(&counts).map(|((_, p), &c)| (c as f64 - p * n as f64).powi(2) / (p * n as f64)).sum();
+            assert!(chi2 < limit, "chi2 = {chi2} for {} cells", law.len());
+        }
+    }
+
+    #[test]
+    fn target_moves_from_the_mobiles_positions_before_they_move() {
+        let w = world(3);
+        let s0 = state((9, 9, RIGHT), (0, 19, UP), [10, 10]);
+        // Same random stream: stepping B away must not change where the target goes.
+        let mut a = s0;
+        w.step(&mut a, 4 * FORWARD + NO_MOVE, &mut stream(5, Purpose::Optimise, 0, 0));
+        let expected = w.move_target([10, 10], [9, 9], [0, 19], &mut stream(5, Purpose::Optimise, 0, 0));
+        assert_eq!(a.target, expected);
+    }
+
+    #[test]
+    fn an_episode_has_t_steps_and_a_reward_in_0_to_t() {
+        let w = world(3);
+        assert_eq!(w.horizon(), 100);
+        let mut r = rng();
+        let mut s = w.reset(&mut r);
+        for t in 0..w.horizon() {
+            let _ = w.observe(&s, &mut r);
+            w.step(&mut s, (t * 7) % 16, &mut r);
+        }
+        assert!((0.0..=100.0).contains(&w.reward(&s)));
+    }
+
+    #[test]
+    fn case_1_optimum_is_86() {
+        assert_eq!(world(1).case1_optimum().unwrap(), 86);
+        // A target next to C's start is reached with no move at all.
+        let p = TrackingParams { case: 1, target_cell: [17, 17], ..TrackingParams::default() };
+        assert_eq!(TargetTracking::with_params(p).unwrap().case1_optimum().unwrap(), 100);
+        assert!(world(3).case1_optimum().is_err());
+    }
+
+    #[test]
+    fn bad_parameters_are_refused_by_name() {
+        let e = TargetTracking::new(4).unwrap_err().to_string();
+        assert!(e.contains("case") && e.contains('4'), "{e}");
+        let bad = TrackingParams { start_b: [20, 0], ..TrackingParams::default() };
+        let e = TargetTracking::with_params(bad).unwrap_err().to_string();
+        assert!(e.contains("start_b") && e.contains("[20, 0]"), "{e}");
+        let bad = TrackingParams { target_rows: [5, 2], ..TrackingParams::default() };
+        assert!(TargetTracking::with_params(bad).is_err());
+        let bad = TrackingParams { horizon: 0, ..TrackingParams::default() };
+        assert!(TargetTracking::with_params(bad).is_err());
+    }
+
+    #[test]
+    fn world_json_round_trips() {
+        let p = TrackingParams { case: 2, horizon: 50, target_rows: [0, 4], ..TrackingParams::default() };
+        let w = TargetTracking::with_params(p).unwrap();
+        let v = w.to_json();
+        assert_eq!(v["name"], "target-tracking");
+        assert_eq!(TargetTracking::from_json(&v).unwrap(), w);
+    }
+}

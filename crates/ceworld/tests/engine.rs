@@ -1,0 +1,285 @@
+//! The engine through its public API: sampling, counting, the CE update, stopping rules,
+//! determinism across thread counts, and policy files.
+
+use ceworld::episode::{count_episode, run_with};
+use ceworld::rng::{EngineRng, Purpose, stream};
+use ceworld::{
+    CeConfig, Error, Flow, Hhmm, Layout, PolicyFile, StopReason, TargetTracking, World, optimize, random_policy,
+    uniform_policy,
+};
+
+/// A tiny world: `horizon` steps, `n_obs` observations (always 0), decisions `0..n_decisions`,
+/// and `V` = the sum of the decisions.
+struct Sum {
+    horizon: usize,
+    n_obs: usize,
+    n_decisions: usize,
+}
+
+impl World for Sum {
+    type State = f64;
+    fn n_observations(&self) -> usize {
+        self.n_obs
+    }
+    fn n_decisions(&self) -> usize {
+        self.n_decisions
+    }
+    fn horizon(&self) -> usize {
+        self.horizon
+    }
+    fn reset(&self, _: &mut EngineRng) -> f64 {
+        0.0
+    }
+    fn observe(&self, _: &f64, _: &mut EngineRng) -> usize {
+        0
+    }
+    fn step(&self, s: &mut f64, d: usize, _: &mut EngineRng) {
+        *s += d as f64;
+    }
+    fn reward(&self, s: &f64) -> f64 {
+        *s
+    }
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({"name": "sum"})
+    }
+}
+
+fn small(samples: usize, max_iterations: usize) -> CeConfig {
+    CeConfig { samples, max_iterations: Some(max_iterations), eval_episodes: 100, ..CeConfig::default() }
+}
+
+#[test]
+fn counting_a_hand_made_trajectory() {
+    // Λ = 2, |M_1| = 3, |M_2| = 2, Y = 2, D = 2; three steps of [y, d, m1, m2].
+    let layout = Layout::new(2, 2, &[3, 2]).unwrap();
+    let record: [u16; 12] = [1, 0, 2, 1, /* t=2 */ 0, 1, 0, 1, /* t=3 */ 1, 1, 2, 0];
+    let mut counts = vec![0u32; layout.len];
+    count_episode(&layout, &record, &mut counts);
+    let t = &layout.tables;
+    let at = |table: usize, index: &[usize]| {
+        let s = &t[table];
+        let mut flat = 0;
+        for (k, &i) in index.iter().enumerate() {
+            flat = flat * s.dims[k] + i;
+        }
+        counts[s.offset + flat]
+    };
+    // h0[m1][d]: (2,0), (0,1), (2,1)
+    assert_eq!((at(0, &[2, 0]), at(0, &[0, 1]), at(0, &[2, 1])), (1, 1, 1));
+    // h1[y][m2][m1]: (1,1,2), (0,1,0), (1,0,2)
+    assert_eq!((at(1, &[1, 1, 2]), at(1, &[0, 1, 0]), at(1, &[1, 0, 2])), (1, 1, 1));
+    // start2[u = 0][m2 = 1] at t = 1
+    assert_eq!(at(2, &[0, 1]), 1);
+    // step2[m1(t-1)][u = 0][m2(t)]: (2,0,1) at t = 2, (0,0,0) at t = 3
+    assert_eq!((at(3, &[2, 0, 1]), at(3, &[0, 0, 0])), (1, 1));
+    assert_eq!(counts.iter().sum::<u32>(), 3 + 3 + 1 + 2, "nothing else counted");
+}
+
+#[test]
+fn top_down_sampling_follows_start_and_step_tables() {
+    // [2, 2] with 1 observation, 2 decisions; t = 1 uses start2, t = 2 uses step2[m1(1)].
+    let layout = Layout::new(1, 2, &[2, 2]).unwrap();
+    let (h0, h1, start2, step2) = (vec![0.5; 4], vec![0.9, 0.1, 0.2, 0.8], vec![0.3, 0.7], vec![0.6, 0.4, 0.15, 0.85]);
+    let probs: Vec<f64> = [h0, h1, start2, step2].concat();
+    let policy = Hhmm::from_flat(layout, probs).unwrap();
+    let world = Sum { horizon: 2, n_obs: 1, n_decisions: 2 };
+    let n = 100_000;
+    let (mut m2_first, mut pair) = (0u32, [[0u32; 2]; 2]);
+    let mut m1_given_m2 = [[0u32; 2]; 2];
+    for k in 0..n {
+        let mut prev_m1 = 0;
+        run_with(&world, &policy, &mut stream(11, Purpose::Evaluate, 0, k), |t, _, _, m, _| {
+            if t == 0 {
+                m2_first += m[1] as u32;
+                prev_m1 = m[0] as usize;
+            } else {
+                pair[prev_m1][m[1] as usize] += 1;
+            }
+            m1_given_m2[m[1] as usize][m[0] as usize] += 1;
+        });
+    }
+    let freq = |a: u32, b: u32| a as f64 / (a + b) as f64;
+    let close = |got: f64, p: f64, count: u32| {
+        let sd = (p * (1.0 - p) / count as f64).sqrt();
+        assert!((got - p).abs() < 4.0 * sd, "frequency {got} vs probability {p} (4 sd = {})", 4.0 * sd);
+    };
+    close(m2_first as f64 / n as f64, 0.7, n as u32);
+    close(freq(pair[0][1], pair[0][0]), 0.4, pair[0][0] + pair[0][1]);
+    close(freq(pair[1][1], pair[1][0]), 0.85, pair[1][0] + pair[1][1]);
+    close(freq(m1_given_m2[0][1], m1_given_m2[0][0]), 0.1, m1_given_m2[0][0] + m1_given_m2[0][1]);
+    close(freq(m1_given_m2[1][1], m1_given_m2[1][0]), 0.8, m1_given_m2[1][0] + m1_given_m2[1][1]);
+}
+
+#[test]
+fn one_ce_iteration_on_a_hand_checkable_world() {
+    // V = d in {0, 1, 2}: about a third of 1000 episodes pick 2, so the best 10 % all have
+    // d = 2, and basic CE (α = 1) sets h0 = [0, 0, 1].
+    let world = Sum { horizon: 1, n_obs: 1, n_decisions: 3 };
+    let config = CeConfig { rho: 0.1, ..small(1000, 1) };
+    let r = optimize(&world, uniform_policy(&world, &[1]).unwrap(), &config, |_| Flow::Continue).unwrap();
+    assert_eq!(r.last_policy.table(0), &[0.0, 0.0, 1.0]);
+    assert_eq!(r.history[0].elite_threshold, 2.0);
+    assert_eq!(r.history[0].best, 2.0);
+    assert_eq!(r.policy, uniform_policy(&world, &[1]).unwrap(), "the best iteration's policy drew it");
+    // With smoothing α = 0.5 the row is half new, half old.
+    let config = CeConfig { smoothing: 0.5, ..config };
+    let r = optimize(&world, uniform_policy(&world, &[1]).unwrap(), &config, |_| Flow::Continue).unwrap();
+    let row = r.last_policy.table(0);
+    for (got, want) in row.iter().zip([1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0]) {
+        assert!((got - want).abs() < 1e-12, "{row:?}");
+    }
+}
+
+#[test]
+fn elite_is_the_best_ceil_rho_n_with_seeded_tie_breaks() {
+    // V = d in {0, 1}: ties everywhere. The elite (ceil(0.3 * 10) = 3) must be 3 episodes of
+    // the best reward when at least 3 have it, and the same on every run.
+    let world = Sum { horizon: 1, n_obs: 1, n_decisions: 2 };
+    let config = CeConfig { rho: 0.3, ..small(10, 1) };
+    let run = || optimize(&world, uniform_policy(&world, &[1]).unwrap(), &config, |_| Flow::Continue).unwrap();
+    let (a, b) = (run(), run());
+    assert_eq!(a.last_policy, b.last_policy);
+    assert_eq!(a.history[0].elite_threshold, 1.0);
+    assert_eq!(a.last_policy.table(0), &[0.0, 1.0]);
+}
+
+#[test]
+fn rows_without_counts_keep_their_values() {
+    // Two observations, but the world only ever emits 0: h1's row for y = 1 is never counted.
+    let world = Sum { horizon: 3, n_obs: 2, n_decisions: 2 };
+    let initial = random_policy(&world, &[3], 9).unwrap();
+    let r = optimize(&world, initial.clone(), &small(50, 2), |_| Flow::Continue).unwrap();
+    let row_y1 = |h: &Hhmm| h.table(1)[3..6].to_vec();
+    assert_eq!(row_y1(&r.last_policy), row_y1(&initial));
+    assert_ne!(r.last_policy.table(1)[..3], initial.table(1)[..3]);
+}
+
+#[test]
+fn stopping_rules() {
+    let world = Sum { horizon: 2, n_obs: 1, n_decisions: 2 };
+    let start = || uniform_policy(&world, &[1]).unwrap();
+    // Converges at once to V = 2 every time: the mean stops improving, so patience 3 stops it.
+    let config = CeConfig { patience: 3, max_iterations: None, ..small(200, 1) };
+    let r = optimize(&world, start(), &config, |_| Flow::Continue).unwrap();
+    assert_eq!(r.stop, StopReason::Patience);
+    let last_success = r.history.iter().rposition(|h| h.successful).unwrap();
+    assert_eq!(r.history.len(), last_success + 1 + 3);
+    assert_eq!(r.best_iteration, last_success);
+    let r = optimize(&world, start(), &small(200, 2), |_| Flow::Continue).unwrap();
+    assert_eq!((r.stop, r.history.len()), (StopReason::MaxIterations, 2));
+    let config = CeConfig { target: Some(1.5), max_iterations: None, ..small(200, 1) };
+    let r = optimize(&world, start(), &config, |_| Flow::Continue).unwrap();
+    assert_eq!(r.stop, StopReason::Target);
+    assert!(r.history.last().unwrap().mean >= 1.5);
+    let config = CeConfig { time_limit: Some(1e-9), max_iterations: None, ..small(200, 1) };
+    assert_eq!(optimize(&world, start(), &config, |_| Flow::Continue).unwrap().stop, StopReason::TimeLimit);
+    let mut calls = 0;
+    let r = optimize(&world, start(), &CeConfig { max_iterations: None, ..small(200, 1) }, |_| {
+        calls += 1;
+        if calls == 2 { Flow::Stop } else { Flow::Continue }
+    })
+    .unwrap();
+    assert!(r.interrupted());
+    assert_eq!(r.history.len(), 2);
+}
+
+#[test]
+fn bad_settings_are_refused_by_name() {
+    let world = TargetTracking::new(3).unwrap();
+    let start = uniform_policy(&world, &[4]).unwrap();
+    for (config, name) in [
+        (CeConfig { rho: 0.0, ..CeConfig::default() }, "rho"),
+        (CeConfig { rho: 1.0, ..CeConfig::default() }, "rho"),
+        (CeConfig { rho: 1.5, ..CeConfig::default() }, "rho"),
+        (CeConfig { samples: 0, ..CeConfig::default() }, "samples"),
+        (CeConfig { smoothing: 0.0, ..CeConfig::default() }, "smoothing"),
+        (CeConfig { patience: 0, ..CeConfig::default() }, "patience"),
+        (CeConfig { threads: Some(0), ..CeConfig::default() }, "threads"),
+    ] {
+        match optimize(&world, start.clone(), &config, |_| Flow::Continue) {
+            Err(Error::InvalidArgument { name: got, .. }) => assert_eq!(got, name),
+            other => panic!("{name}: expected an InvalidArgument error, got {other:?}"),
+        }
+    }
+    let blind = TargetTracking::new(2).unwrap();
+    let e = optimize(&blind, start, &CeConfig::default(), |_| Flow::Continue).unwrap_err();
+    assert!(matches!(e, Error::Mismatch(_)), "{e}");
+}
+
+fn tracking_run(threads: usize) -> (PolicyFile, Vec<(f64, f64, f64, f64)>) {
+    let world = TargetTracking::new(3).unwrap();
+    let config = CeConfig { threads: Some(threads), seed: 5, ..small(300, 4) };
+    let r = optimize(&world, uniform_policy(&world, &[4, 3]).unwrap(), &config, |_| Flow::Continue).unwrap();
+    let history = r.history.iter().map(|h| (h.mean, h.best, h.elite_threshold, h.elite_mean)).collect();
+    (PolicyFile::from_result(&world, &r, &config), history)
+}
+
+#[test]
+fn same_seed_gives_identical_files_with_1_and_2_threads() {
+    let (one, h1) = tracking_run(1);
+    let (two, h2) = tracking_run(2);
+    assert_eq!(h1, h2);
+    assert_eq!(one.to_json().to_string(), two.to_json().to_string());
+    let (other_seed, _) = {
+        let world = TargetTracking::new(3).unwrap();
+        let config = CeConfig { threads: Some(2), seed: 6, ..small(300, 4) };
+        let r = optimize(&world, uniform_policy(&world, &[4, 3]).unwrap(), &config, |_| Flow::Continue).unwrap();
+        (PolicyFile::from_result(&world, &r, &config), ())
+    };
+    assert_ne!(one.policy, other_seed.policy);
+}
+
+#[test]
+fn policy_file_round_trip() {
+    let (file, _) = tracking_run(2);
+    let dir = std::env::temp_dir().join(format!("ceworld-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("p.json");
+    file.save(&path).unwrap();
+    let back = PolicyFile::load(&path).unwrap();
+    assert!(back == file, "tables, world and provenance must come back bit-identical");
+    let world = TargetTracking::from_json(&back.world).unwrap();
+    assert_eq!(world, TargetTracking::new(3).unwrap());
+    std::fs::remove_dir_all(dir).ok();
+}
+
+fn rejection(edit: impl FnOnce(&mut serde_json::Value)) -> String {
+    let world = TargetTracking::new(3).unwrap();
+    let file = PolicyFile {
+        policy: uniform_policy(&world, &[3, 2]).unwrap(),
+        world: world.to_json(),
+        provenance: serde_json::json!({}),
+    };
+    let mut doc = file.to_json();
+    edit(&mut doc);
+    PolicyFile::from_json(&doc).unwrap_err().to_string()
+}
+
+#[test]
+fn bad_policy_files_are_refused_clearly() {
+    let e = rejection(|d| d["policy"]["h0"][1] = serde_json::json!([0.5, 0.5]));
+    assert!(e.contains("policy.h0[1] has length 2 (expected 16)"), "{e}");
+    let e = rejection(|d| {
+        d["policy"]["upper"][0]["step"][2][0] = serde_json::json!([1.5, -0.5]);
+    });
+    assert!(e.contains("step2[2][0][1] = -0.5"), "{e}");
+    let e = rejection(|d| d["policy"]["h1"][4][1][0] = serde_json::json!(0.9));
+    assert!(e.contains("h1[4][1]") && e.contains("sums to"), "{e}");
+    let e = rejection(|d| d["format"] = serde_json::json!("other"));
+    assert!(e.contains("format"), "{e}");
+    let e = rejection(|d| d["policy"]["upper"] = serde_json::json!([]));
+    assert!(e.contains("policy.upper has 0 entries (expected 1"), "{e}");
+    let e = rejection(|d| d["levels"] = serde_json::json!([3, 0]));
+    assert!(e.contains("size 0"), "{e}");
+    // unknown keys are ignored
+    let world = TargetTracking::new(3).unwrap();
+    let file = PolicyFile {
+        policy: uniform_policy(&world, &[2]).unwrap(),
+        world: world.to_json(),
+        provenance: serde_json::json!({}),
+    };
+    let mut doc = file.to_json();
+    doc["comment"] = serde_json::json!("hello");
+    doc["policy"]["extra"] = serde_json::json!(1);
+    assert_eq!(PolicyFile::from_json(&doc).unwrap(), file);
+}
