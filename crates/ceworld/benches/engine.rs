@@ -1,1 +1,53 @@
-fn main() {}
+//! Hot paths of the engine: one episode and one CE iteration, for several model sizes.
+//! Throughput is in episode-steps per second (`cargo bench -p ceworld`).
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+use ceworld::episode::{count_episode, run_recorded};
+use ceworld::rng::{Purpose, stream};
+use ceworld::{CeConfig, Flow, TargetTracking, World, optimize, random_policy};
+
+const MODELS: [&[usize]; 3] = [&[16], &[16, 16], &[256, 256]];
+
+fn episode(c: &mut Criterion) {
+    let world = TargetTracking::new(3).unwrap();
+    let mut group = c.benchmark_group("episode");
+    group.throughput(Throughput::Elements(world.horizon() as u64));
+    for levels in MODELS {
+        let policy = random_policy(&world, levels, 1).unwrap();
+        let mut record = vec![0u16; world.horizon() * policy.layout().record_width()];
+        let mut k = 0u64;
+        group.bench_function(format!("{levels:?}"), |b| {
+            b.iter(|| {
+                k += 1;
+                let mut rng = stream(0, Purpose::Optimise, 0, k);
+                black_box(run_recorded(&world, &policy, &mut rng, &mut record))
+            })
+        });
+        let mut counts = vec![0u32; policy.layout().len];
+        group.bench_function(format!("count {levels:?}"), |b| {
+            b.iter(|| count_episode(policy.layout(), black_box(&record), &mut counts))
+        });
+    }
+    group.finish();
+}
+
+fn ce_iteration(c: &mut Criterion) {
+    let world = TargetTracking::new(3).unwrap();
+    let mut group = c.benchmark_group("ce_iteration_N1000");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(1000 * world.horizon() as u64));
+    for levels in MODELS {
+        let policy = random_policy(&world, levels, 1).unwrap();
+        let config = CeConfig { max_iterations: Some(1), eval_episodes: 1, ..CeConfig::default() };
+        group.bench_function(format!("{levels:?}"), |b| {
+            b.iter(|| optimize(&world, policy.clone(), &config, |_| Flow::Continue).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, episode, ce_iteration);
+criterion_main!(benches);

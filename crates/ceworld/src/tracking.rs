@@ -622,6 +622,63 @@ mod tests {
         assert!(world(3).case1_optimum().is_err());
     }
 
+    /// Best reward of a deterministic memoryless policy (a map y -> d) in case 1, by exhaustive
+    /// depth-first search over the maps along the (deterministic) trajectory, pruned by the
+    /// BFS bound of `case1_optimum`.
+    fn best_memoryless_case1(w: &TargetTracking) -> u32 {
+        let p = w.params().clone();
+        let to_zone = |m: Mobile| w.moves_to_encounter(m).unwrap_or(usize::MAX / 2);
+        fn search(
+            w: &TargetTracking,
+            s: TrackingState,
+            t: usize,
+            map: &mut [Option<usize>; 16],
+            best: &mut u32,
+            to_zone: &dyn Fn(Mobile) -> usize,
+        ) {
+            let horizon = w.horizon();
+            let (mut s, mut t) = (s, t);
+            let mut rng = stream(0, Purpose::Optimise, 0, 0);
+            loop {
+                let reachable = horizon.saturating_sub(t + to_zone(s.b).min(to_zone(s.c)));
+                if s.score + reachable as u32 <= *best {
+                    return;
+                }
+                if t == horizon {
+                    *best = s.score;
+                    return;
+                }
+                let y = w.observe(&s, &mut rng);
+                match map[y] {
+                    Some(d) => {
+                        w.step(&mut s, d, &mut rng);
+                        t += 1;
+                    }
+                    None => {
+                        for d in 0..16 {
+                            map[y] = Some(d);
+                            let mut next = s;
+                            w.step(&mut next, d, &mut rng);
+                            search(w, next, t + 1, map, best, to_zone);
+                        }
+                        map[y] = None;
+                        return;
+                    }
+                }
+            }
+        }
+        let mut best = 0;
+        search(w, w.initial_state(p.target_cell), 0, &mut [None; 16], &mut best, &to_zone);
+        best
+    }
+
+    #[test]
+    fn case_1_deterministic_memoryless_optimum_is_83() {
+        // Without memory, a mobile can only turn where its observation changes: C turns up
+        // when it passes the target's column (17 moves), not after the 6 moves of the optimum.
+        assert_eq!(best_memoryless_case1(&world(1)), 83);
+    }
+
     #[test]
     fn bad_parameters_are_refused_by_name() {
         let e = TargetTracking::new(4).unwrap_err().to_string();
