@@ -1,0 +1,114 @@
+//! The `ceworld` binary: happy paths, clear errors (exit code 2, never a panic), Ctrl-C.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn ceworld(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ceworld")).args(args).output().expect("the binary runs")
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ceworld-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn fails_with(args: &[&str], needles: &[&str]) {
+    let out = ceworld(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?} panicked: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "{args:?}: {needle:?} not in {stderr}");
+    }
+}
+
+#[test]
+fn optimize_then_evaluate() {
+    let path = temp("small.json");
+    let p = path.to_str().unwrap();
+    let out = ceworld(&[
+        "optimize",
+        "--case",
+        "1",
+        "--levels",
+        "4,2",
+        "--samples",
+        "100",
+        "--max-iterations",
+        "3",
+        "--eval-episodes",
+        "50",
+        "--out",
+        p,
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("max_iterations: 3 iterations"), "{stdout}");
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(doc["format"], "cehmm-policy");
+    assert_eq!(doc["levels"], serde_json::json!([4, 2]));
+    assert_eq!(doc["world"]["case"], 1);
+    let out = ceworld(&["evaluate", p, "--episodes", "200"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("200 episodes: mean"));
+}
+
+#[test]
+fn optimum_of_case_1() {
+    let out = ceworld(&["optimum", "--case", "1"]);
+    assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "86");
+    fails_with(&["optimum", "--case", "3"], &["case", "case 1 only"]);
+}
+
+#[test]
+fn bad_arguments_are_named() {
+    fails_with(&["optimize", "--rho", "1.5"], &["rho", "1.5", "0 < rho < 1"]);
+    fails_with(&["optimize", "--rho", "0"], &["rho"]);
+    fails_with(&["optimize", "--samples", "0"], &["samples", "at least 1"]);
+    fails_with(&["optimize", "--levels", "16,0"], &["levels", "level 2 has size 0"]);
+    fails_with(&["optimize", "--smoothing", "0"], &["smoothing"]);
+    fails_with(&["optimize", "--case", "4"], &["case", "expected 1, 2 or 3"]);
+    fails_with(&["optimize", "--param", "bogus=1"], &["unknown key \"bogus\""]);
+    fails_with(&["optimize", "--param", "start_b=[30,0]"], &["start_b", "off the"]);
+    fails_with(&["evaluate", "/nonexistent/p.json"], &["/nonexistent/p.json"]);
+    // clap's own errors (not a number) also exit with code 2
+    fails_with(&["optimize", "--samples", "many"], &["samples"]);
+}
+
+#[test]
+fn bad_policy_files_are_refused() {
+    let path = temp("bad.json");
+    let p = path.to_str().unwrap();
+    std::fs::write(&path, "{not json").unwrap();
+    fails_with(&["evaluate", p], &["invalid policy file", "not JSON"]);
+    std::fs::write(&path, r#"{"format": "cehmm-policy", "version": 1, "n_obs": 1, "n_actions": 16, "levels": [1],
+        "world": {"name": "target-tracking", "case": 3},
+        "policy": {"h0": [[0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625,0.0625]],
+                   "h1": [[[1.0]]], "upper": []}}"#)
+        .unwrap();
+    fails_with(&["evaluate", p], &["does not match the world", "1 observations"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_saves_the_best_policy_so_far() {
+    let path = temp("interrupted.json");
+    let child = Command::new(env!("CARGO_BIN_EXE_ceworld"))
+        .args(["optimize", "--case", "3", "--levels", "16,16", "--samples", "500", "--patience", "100000"])
+        .args(["--eval-episodes", "100", "--quiet", "--out", path.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("interrupted:"));
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(doc["provenance"]["interrupted"], true);
+    assert!(doc["provenance"]["iterations"].as_u64().unwrap() >= 1);
+}
