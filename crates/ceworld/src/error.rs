@@ -18,7 +18,7 @@ pub enum Error {
     #[error("policy does not match the world: {0}")]
     Mismatch(String),
     /// A policy file that is not valid cehmm-policy JSON.
-    #[error("invalid policy file{}: {message}", path.as_ref().map(|p| format!(" {}", p.display())).unwrap_or_default())]
+    #[error("invalid policy{}: {message}", path.as_ref().map(|p| format!(" file {}", p.display())).unwrap_or_default())]
     PolicyFormat {
         /// The file, when there is one.
         path: Option<PathBuf>,

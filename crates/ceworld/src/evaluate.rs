@@ -55,8 +55,8 @@ impl Evaluation {
 /// Rewards of `episodes` fresh episodes (streams `(seed, Evaluate, 0, k)`), in episode order.
 pub fn rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Vec<f64>> {
     check_fits(world, policy)?;
-    if episodes == 0 {
-        return Err(Error::invalid("episodes", "0 (expected at least 1)"));
+    if episodes == 0 || episodes > crate::optimize::MAX_EPISODES {
+        return Err(Error::invalid("episodes", format!("{episodes} (expected 1..={})", crate::optimize::MAX_EPISODES)));
     }
     Ok((0..episodes)
         .into_par_iter()

@@ -55,6 +55,11 @@ impl Default for CeConfig {
     }
 }
 
+/// Largest number of episodes of one evaluation (their rewards are kept for the quantiles).
+pub const MAX_EPISODES: usize = 100_000_000;
+/// Largest memory for the recorded episodes of one iteration.
+pub const MAX_RECORD_BYTES: usize = 8 << 30;
+
 /// The paper's weak convergence criterion: 100 unsuccessful iterations in a row.
 pub const WEAK_PATIENCE: usize = 100;
 /// The paper's strong convergence criterion: 500 unsuccessful iterations in a row.
@@ -84,7 +89,7 @@ impl CeConfig {
             return Err(Error::invalid("max_iterations", "0 (expected at least 1, or none)"));
         }
         if let Some(t) = self.time_limit {
-            if !(t > 0.0) {
+            if t.is_nan() || t <= 0.0 {
                 return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
             }
         }
@@ -96,8 +101,11 @@ impl CeConfig {
         if self.threads == Some(0) {
             return Err(Error::invalid("threads", "0 (expected at least 1, or none for one per core)"));
         }
-        if self.eval_episodes == 0 {
-            return Err(Error::invalid("eval_episodes", "0 (expected at least 1)"));
+        if self.eval_episodes == 0 || self.eval_episodes > MAX_EPISODES {
+            return Err(Error::invalid(
+                "eval_episodes",
+                format!("{} (expected 1..={MAX_EPISODES})", self.eval_episodes),
+            ));
         }
         Ok(())
     }
@@ -215,6 +223,17 @@ pub fn optimize<W: World>(
     let (n, elite_count) = (config.samples, config.elite_count());
     if elite_count.saturating_mul(horizon) > u32::MAX as usize {
         return Err(Error::invalid("samples", format!("{n}: ceil(rho·N)·T overflows the 32-bit counters")));
+    }
+    let record_bytes = (n as u128) * (stride as u128) * 2;
+    if record_bytes > MAX_RECORD_BYTES as u128 {
+        return Err(Error::invalid(
+            "samples",
+            format!(
+                "{n}: the episodes of one iteration would take {} MiB (at most {} MiB)",
+                record_bytes >> 20,
+                MAX_RECORD_BYTES >> 20
+            ),
+        ));
     }
     let started = Instant::now();
     let mut policy = initial;

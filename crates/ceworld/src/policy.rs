@@ -13,10 +13,18 @@ use crate::rng::EngineRng;
 /// Largest memory size of one level (trajectories store states as `u16`).
 pub const MAX_LEVEL_SIZE: usize = 65_535;
 
+/// Largest number of table entries of one policy (each costs 16 bytes: probability and cumulated value).
+pub const MAX_ENTRIES: usize = 1 << 28;
+
+/// `|M_{l+1}|` for 1-based level `l`, or 1 at the top.
+fn layout_upper(levels: &[usize], l: usize) -> usize {
+    if l < levels.len() { levels[l] } else { 1 }
+}
+
 /// Where one conditional table sits in the flat parameter vector.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TableShape {
-    /// `"h0"`, `"h1"`, `"start2"`, `"step2"`, ... (level number after the kind).
+    /// The table's path in the policy file: `"h0"`, `"h1"`, `"upper[0].start"`, `"upper[0].step"`, ...
     pub name: String,
     /// The table's shape as in the policy file; the last axis is the outcome.
     pub dims: Vec<usize>,
@@ -37,7 +45,7 @@ pub struct Layout {
     pub n_actions: usize,
     /// Memory sizes `|M_1|, ..., |M_Λ|`.
     pub levels: Vec<usize>,
-    /// The tables, in the order `h0, h1, start2, step2, start3, step3, ...`.
+    /// The tables, in the order `h0, h1, upper[0].start, upper[0].step, upper[1].start, ...`.
     pub tables: Vec<TableShape>,
     /// Total number of entries.
     pub len: usize,
@@ -63,6 +71,19 @@ impl Layout {
                 return Err(Error::invalid(name, format!("{v} (expected 1..={MAX_LEVEL_SIZE})")));
             }
         }
+        let mut entries = (levels[0] as u128) * (n_actions as u128 + n_obs as u128 * layout_upper(levels, 1) as u128);
+        for l in 2..=levels.len() {
+            entries += levels[l - 1] as u128 * layout_upper(levels, l) as u128 * (1 + levels[l - 2] as u128);
+        }
+        if entries > MAX_ENTRIES as u128 {
+            return Err(Error::invalid(
+                "levels",
+                format!(
+                    "{levels:?} needs {entries} table entries (at most {MAX_ENTRIES}, i.e. {} GiB of tables)",
+                    (MAX_ENTRIES * 16) >> 30
+                ),
+            ));
+        }
         let mut tables = Vec::with_capacity(2 * levels.len());
         let mut offset = 0;
         let mut push = |name: String, dims: Vec<usize>| {
@@ -76,8 +97,8 @@ impl Layout {
         push("h0".into(), vec![levels[0], n_actions]);
         push("h1".into(), vec![n_obs, upper(1), levels[0]]);
         for l in 2..=lambda {
-            push(format!("start{l}"), vec![upper(l), levels[l - 1]]);
-            push(format!("step{l}"), vec![levels[l - 2], upper(l), levels[l - 1]]);
+            push(format!("upper[{}].start", l - 2), vec![upper(l), levels[l - 1]]);
+            push(format!("upper[{}].step", l - 2), vec![levels[l - 2], upper(l), levels[l - 1]]);
         }
         Ok(Layout { n_obs, n_actions, levels: levels.to_vec(), tables, len: offset })
     }
@@ -293,10 +314,10 @@ mod tests {
             vec![
                 ("h0", vec![8, 4]),
                 ("h1", vec![16, 3, 8]),
-                ("start2", vec![2, 3]),
-                ("step2", vec![8, 2, 3]),
-                ("start3", vec![1, 2]),
-                ("step3", vec![3, 1, 2]),
+                ("upper[0].start", vec![2, 3]),
+                ("upper[0].step", vec![8, 2, 3]),
+                ("upper[1].start", vec![1, 2]),
+                ("upper[1].step", vec![3, 1, 2]),
             ]
         );
         assert_eq!(l.len, 32 + 384 + 6 + 48 + 2 + 6);
@@ -309,6 +330,8 @@ mod tests {
         assert!(e.contains("level 2 has size 0"), "{e}");
         assert!(Layout::new(16, 16, &[70_000]).is_err());
         assert!(Layout::new(16, 16, &[1024, 1024]).is_ok());
+        let e = Layout::new(16, 16, &[65_535, 65_535]).unwrap_err().to_string();
+        assert!(e.contains("table entries"), "{e}");
     }
 
     #[test]

@@ -262,7 +262,7 @@ fn bad_policy_files_are_refused_clearly() {
     let e = rejection(|d| {
         d["policy"]["upper"][0]["step"][2][0] = serde_json::json!([1.5, -0.5]);
     });
-    assert!(e.contains("step2[2][0][1] = -0.5"), "{e}");
+    assert!(e.contains("upper[0].step[2][0][1] = -0.5"), "{e}");
     let e = rejection(|d| d["policy"]["h1"][4][1][0] = serde_json::json!(0.9));
     assert!(e.contains("h1[4][1]") && e.contains("sums to"), "{e}");
     let e = rejection(|d| d["format"] = serde_json::json!("other"));

@@ -1,0 +1,48 @@
+"""cehmm: cross-entropic learning of hierarchical-HMM policies for partially observable worlds.
+
+After F. Dambreville, "Cross-Entropic Learning of a Machine for the Decision in a Partially
+Observable Universe". A policy is a hierarchical HMM with input (observations) and output
+(decisions); its tables are optimised by Rubinstein's cross-entropy method. The engine is the
+Rust crate ``ceworld`` (compiled here as the private module ``cehmm._core``).
+
+Example:
+    >>> import cehmm
+    >>> world = cehmm.TargetTracking(case=3)
+    >>> result = cehmm.optimize(world, levels=[16, 16], samples=1000, patience=100)  # doctest: +SKIP
+    >>> result.evaluation.mean  # doctest: +SKIP
+    65.2
+    >>> result.policy.save("policy.json")  # doctest: +SKIP
+
+Errors: every error of the engine is a :class:`CehmmError` (a ``ValueError``):
+:class:`InvalidArgumentError` (an argument out of its domain or of the wrong type),
+:class:`PolicyFormatError` (an invalid policy file or table) and :class:`PolicyMismatchError`
+(a policy used with a world of other sizes). A file that cannot be read or written raises the
+built-in ``OSError`` subclass of its errno (``FileNotFoundError``, ``PermissionError``, ...).
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from ._core import ENGINE_VERSION, CehmmError, InvalidArgumentError, PolicyFormatError, PolicyMismatchError
+from .evaluation import Evaluation, Rollout
+from .optimizer import OptimizeResult, optimize
+from .policy import Policy
+from .tracking import TargetTracking
+
+try:
+    __version__ = version("cehmm")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree without metadata
+    __version__ = ENGINE_VERSION
+
+__all__ = [
+    "CehmmError",
+    "Evaluation",
+    "InvalidArgumentError",
+    "OptimizeResult",
+    "Policy",
+    "PolicyFormatError",
+    "PolicyMismatchError",
+    "Rollout",
+    "TargetTracking",
+    "__version__",
+    "optimize",
+]

@@ -1,0 +1,147 @@
+"""Stub of the compiled engine ``cehmm._core`` (crates/cehmm-py/src/lib.rs).
+
+Private: use the ``cehmm`` package. Arguments are typed as the bindings extract them; the Python
+layer checks types first. Arrays are numpy arrays: tables float64, rollouts int64.
+"""
+
+import os
+from typing import Any, TypedDict
+
+import numpy as np
+import numpy.typing as npt
+
+ENGINE_VERSION: str
+
+class CehmmError(ValueError):
+    """Base class of the errors raised by cehmm."""
+
+class InvalidArgumentError(CehmmError):
+    """An argument outside its domain or of the wrong type (``ceworld::Error::InvalidArgument``)."""
+
+class PolicyFormatError(CehmmError):
+    """An invalid policy file or table (``ceworld::Error::PolicyFormat``)."""
+
+class PolicyMismatchError(CehmmError):
+    """A policy whose observation or decision count differs from the world's (``ceworld::Error::Mismatch``)."""
+
+# ``ceworld::Error::Io`` is raised as the built-in ``OSError`` subclass of its errno, with ``filename``.
+
+class EvaluationDict(TypedDict):
+    episodes: int
+    mean: float
+    std_error: float
+    std: float
+    min: float
+    max: float
+    quantiles: dict[float, float]
+
+class UpperTables(TypedDict):
+    start: npt.NDArray[np.float64]  # (U, |M_l|)
+    step: npt.NDArray[np.float64]  # (|M_{l-1}|, U, |M_l|)
+
+class TablesDict(TypedDict):
+    h0: npt.NDArray[np.float64]  # (|M_1|, D)
+    h1: npt.NDArray[np.float64]  # (Y, U, |M_1|)
+    upper: list[UpperTables]  # levels 2..Λ
+
+class RolloutDict(TypedDict):
+    x: npt.NDArray[np.int64]  # (T, k), k = len(x_labels)
+    x_labels: list[str]
+    y: npt.NDArray[np.int64]  # (T,)
+    d: npt.NDArray[np.int64]  # (T,)
+    memory: npt.NDArray[np.int64]  # (T, Λ)
+    reward: float
+
+class HistoryDict(TypedDict):
+    iteration: npt.NDArray[np.int64]  # (iterations,)
+    mean: npt.NDArray[np.float64]
+    best: npt.NDArray[np.float64]
+    elite_threshold: npt.NDArray[np.float64]
+    elite_mean: npt.NDArray[np.float64]
+    seconds: npt.NDArray[np.float64]
+    successful: npt.NDArray[np.bool_]
+
+class OptimizeDict(TypedDict):
+    policy: Policy
+    last_policy: Policy
+    history: HistoryDict
+    evaluation: EvaluationDict
+    stop_reason: str
+    interrupted: bool
+    best_iteration: int
+    iterations: int
+    seconds: float
+
+class TargetTracking:
+    """``ceworld::TargetTracking``: the world of SPEC §4."""
+
+    def __init__(self, case: int | None = None, **params: int | list[int] | tuple[int, int]) -> None: ...
+    @property
+    def case(self) -> int: ...
+    @property
+    def n_observations(self) -> int: ...
+    @property
+    def n_decisions(self) -> int: ...
+    @property
+    def horizon(self) -> int: ...
+    @property
+    def params(self) -> dict[str, Any]: ...
+    def to_dict(self) -> dict[str, Any]: ...
+    def state_labels(self) -> list[str]: ...
+    def optimum(self) -> int: ...
+
+class Policy:
+    """``ceworld::PolicyFile``: an HHMM policy with its world and provenance (SPEC §6)."""
+
+    @staticmethod
+    def uniform(world: TargetTracking, levels: list[int]) -> Policy: ...
+    @staticmethod
+    def random(world: TargetTracking, levels: list[int], seed: int) -> Policy: ...
+    @staticmethod
+    def from_tables(
+        h0: npt.NDArray[np.float64],
+        h1: npt.NDArray[np.float64],
+        upper: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]],
+        world: TargetTracking | None = None,
+        provenance_json: str | None = None,
+    ) -> Policy: ...
+    @staticmethod
+    def load(path: str | os.PathLike[str]) -> Policy: ...
+    @staticmethod
+    def from_json(text: str) -> Policy: ...
+    def save(self, path: str | os.PathLike[str]) -> None: ...
+    def to_json(self) -> str: ...
+    @property
+    def levels(self) -> list[int]: ...
+    @property
+    def n_obs(self) -> int: ...
+    @property
+    def n_actions(self) -> int: ...
+    @property
+    def parameter_count(self) -> int: ...
+    @property
+    def world(self) -> dict[str, Any]: ...
+    @property
+    def provenance(self) -> dict[str, Any]: ...
+    def tables(self) -> TablesDict: ...
+    def evaluate(
+        self, world: TargetTracking, episodes: int, seed: int, threads: int | None = None
+    ) -> EvaluationDict: ...
+    def rollout(self, world: TargetTracking, seed: int, episode: int = 0) -> RolloutDict: ...
+
+def optimize(
+    world: TargetTracking,
+    initial: Policy,
+    *,
+    samples: int,
+    rho: float,
+    smoothing: float,
+    patience: int,
+    max_iterations: int | None,
+    time_limit: float | None,
+    target: float | None,
+    seed: int,
+    threads: int | None,
+    eval_episodes: int,
+    progress: bool,
+) -> OptimizeDict: ...

@@ -1,0 +1,165 @@
+"""The cross-entropy optimiser (SPEC §3): :func:`optimize` and its :class:`OptimizeResult`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Union
+
+import numpy as np
+
+from . import _core
+from . import _validate as check
+from .evaluation import Evaluation
+from .policy import Policy
+from .tracking import TargetTracking, core_world
+
+#: What :func:`optimize` starts from.
+Init = Union[None, str, Policy]
+
+DEFAULT_LEVELS = (16, 16)
+
+
+@dataclass(frozen=True, repr=False, eq=False)
+class OptimizeResult:
+    """The outcome of :func:`optimize`.
+
+    Attributes:
+        policy: the policy that drew the best iteration (highest mean reward), with its provenance.
+        last_policy: the policy after the last update.
+        history: one numpy array per statistic, one entry per iteration: ``iteration`` (int64),
+            ``mean``, ``best``, ``elite_threshold``, ``elite_mean``, ``seconds`` (float64,
+            seconds since the start) and ``successful`` (bool: the mean beat every earlier one).
+        evaluation: :attr:`policy` evaluated on ``eval_episodes`` fresh episodes (unbiased,
+            unlike the best iteration's mean).
+        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"target"`` or
+            ``"interrupted"`` (Ctrl-C).
+        interrupted: whether Ctrl-C stopped it.
+        best_iteration: index of the best iteration.
+        iterations: number of iterations run.
+        seconds: wall time, evaluation included.
+    """
+
+    policy: Policy
+    last_policy: Policy
+    history: dict[str, np.ndarray]
+    evaluation: Evaluation
+    stop_reason: str
+    interrupted: bool
+    best_iteration: int
+    iterations: int
+    seconds: float
+
+    @property
+    def best_mean(self) -> float:
+        """Mean reward of the best iteration (biased upwards; see :attr:`evaluation`)."""
+        return float(self.history["mean"][self.best_iteration])
+
+    def __repr__(self) -> str:
+        e = self.evaluation
+        return (
+            f"OptimizeResult(stop_reason={self.stop_reason!r}, iterations={self.iterations}, "
+            f"best_iteration={self.best_iteration} (mean {self.best_mean:.2f}), "
+            f"evaluation={e.mean:.2f} ± {e.std_error:.2f} over {e.episodes} episodes, "
+            f"levels={self.policy.levels}, seconds={self.seconds:.1f})"
+        )
+
+
+def optimize(
+    world: TargetTracking,
+    levels: Sequence[int] | None = None,
+    samples: int = 1000,
+    rho: float = 0.5,
+    smoothing: float = 1.0,
+    patience: int = 100,
+    max_iterations: int | None = None,
+    time_limit: float | None = None,
+    target: float | None = None,
+    seed: int = 0,
+    threads: int | None = None,
+    progress: bool = True,
+    eval_episodes: int = 10000,
+    init: Init = None,
+) -> OptimizeResult:
+    """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (SPEC §3).
+
+    Each iteration draws ``samples`` episodes, keeps the best ``ceil(rho · samples)`` and refits
+    every table to them (``h := smoothing · new + (1 − smoothing) · h``). The same seed and
+    settings give the same result bit for bit, whatever ``threads``. Ctrl-C stops between
+    iterations and returns the result so far with ``interrupted`` set (no exception).
+
+    Args:
+        world: the world, e.g. ``TargetTracking(case=3)``.
+        levels: memory sizes per level, bottom first (default ``[16, 16]``, or the levels of
+            ``init`` when it is a :class:`Policy`): ``[16]`` is memoryless, ``[16, 16]`` an IO-HMM.
+        samples: episodes per iteration ``N``.
+        rho: selective rate, ``0 < rho < 1``.
+        smoothing: ``0 < smoothing <= 1``; 1 is the paper's basic CE.
+        patience: stop after this many unsuccessful iterations in a row (the paper's weak
+            criterion is 100, its strong one 500).
+        max_iterations: stop after this many iterations.
+        time_limit: stop after this many seconds (checked between iterations).
+        target: stop once an iteration's mean reward reaches this value.
+        seed: seed of every random stream.
+        threads: worker threads (default: one per core).
+        progress: print a live progress line on the process's stderr (file descriptor 2), at most
+            ten updates a second.
+        eval_episodes: fresh episodes used to evaluate the best policy.
+        init: ``None`` or ``"uniform"`` (uniform tables), ``"random"`` (random tables drawn from
+            ``seed``) or a :class:`Policy` to start from.
+
+    Returns:
+        an :class:`OptimizeResult`.
+
+    Raises:
+        InvalidArgumentError: an argument out of its domain; the message names it and its value.
+        PolicyMismatchError: ``init`` does not fit ``world``.
+
+    Example:
+        >>> world = TargetTracking(case=1)
+        >>> result = optimize(world, levels=[4], samples=200, max_iterations=5, progress=False)
+        >>> result.iterations, len(result.history["mean"])
+        (5, 5)
+    """
+    core = core_world(world)
+    seed = check.seed(seed)
+    initial = _initial(world, levels, init, seed)
+    raw = _core.optimize(
+        core,
+        initial._core,
+        samples=check.count("samples", samples),
+        rho=check.real("rho", rho),
+        smoothing=check.real("smoothing", smoothing),
+        patience=check.count("patience", patience),
+        max_iterations=check.optional_count("max_iterations", max_iterations),
+        time_limit=check.optional_real("time_limit", time_limit),
+        target=check.optional_real("target", target),
+        seed=seed,
+        threads=check.optional_count("threads", threads),
+        eval_episodes=check.count("eval_episodes", eval_episodes),
+        progress=check.flag("progress", progress),
+    )
+    return OptimizeResult(
+        policy=Policy(raw["policy"]),
+        last_policy=Policy(raw["last_policy"]),
+        history=raw["history"],
+        evaluation=Evaluation._from_dict(raw["evaluation"]),
+        stop_reason=raw["stop_reason"],
+        interrupted=raw["interrupted"],
+        best_iteration=raw["best_iteration"],
+        iterations=raw["iterations"],
+        seconds=raw["seconds"],
+    )
+
+
+def _initial(world: TargetTracking, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:
+    if isinstance(init, Policy):
+        if levels is not None and check.levels(levels) != init.levels:
+            raise check.invalid("levels", levels, f"None or the levels of init, {init.levels}")
+        return init
+    sizes = check.levels(DEFAULT_LEVELS if levels is None else levels)
+    if init is None or (isinstance(init, str) and init == "uniform"):
+        return Policy.uniform(world, sizes)
+    if isinstance(init, str) and init == "random":
+        return Policy.random(world, sizes, seed)
+    raise check.invalid("init", init, "None, 'uniform', 'random' or a cehmm.Policy")

@@ -1,0 +1,239 @@
+"""HHMM policies (SPEC §2): tables as numpy arrays, policy files (SPEC §6), evaluation and rollouts."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping, Sequence
+from typing import Any, Union
+
+import numpy as np
+
+from . import _core
+from . import _validate as check
+from ._core import PolicyFormatError
+from .evaluation import Evaluation, Rollout
+from .tracking import TargetTracking, core_world
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: ``{"h0": array, "h1": array, "upper": [{"start": array, "step": array}, ...]}``
+Tables = dict[str, Any]
+
+
+class Policy:
+    """A hierarchical HMM policy with input and output (SPEC §2), with its world and provenance.
+
+    With levels ``[|M_1|, ..., |M_Λ|]`` (bottom first), ``Y`` observations and ``D`` decisions,
+    the tables (:attr:`tables`, float64, every innermost row summing to 1) are:
+
+    * ``h0[m1, d]``, shape ``(|M_1|, D)``: the decision given the bottom memory;
+    * ``h1[y, u, m1]``, shape ``(Y, U, |M_1|)``, ``u = m_2[t]``, ``U = |M_2|`` (1 when ``Λ = 1``);
+    * for each level ``l = 2..Λ``, ``upper[l - 2]`` holds ``start[u, m_l]``, shape
+      ``(U, |M_l|)`` (used at ``t = 1``), and ``step[p, u, m_l]``, shape
+      ``(|M_{l-1}|, U, |M_l|)`` with ``p = m_{l-1}[t-1]``, ``u = m_{l+1}[t]``, ``U = |M_{l+1}|``
+      (1 at the top level).
+
+    Make one with :meth:`uniform`, :meth:`random`, :meth:`from_tables`, :meth:`load` or
+    :func:`cehmm.optimize`.
+
+    Example:
+        >>> world = TargetTracking(case=1)
+        >>> policy = Policy.uniform(world, [16, 16])
+        >>> policy.parameter_count
+        4320
+        >>> policy.evaluate(world, episodes=1000).mean  # doctest: +SKIP
+        15.8
+    """
+
+    __slots__ = ("_core",)
+
+    def __init__(self, core: _core.Policy) -> None:
+        if not isinstance(core, _core.Policy):
+            raise TypeError("use Policy.uniform, Policy.random, Policy.from_tables or Policy.load to make a Policy")
+        self._core = core
+
+    # -- construction ------------------------------------------------------------------------
+
+    @classmethod
+    def uniform(cls, world: TargetTracking, levels: Sequence[int]) -> Policy:
+        """The policy whose every row is uniform (the starting point of the CE method).
+
+        Raises:
+            InvalidArgumentError: ``levels`` is not a non-empty list of sizes in ``1..=65535``.
+        """
+        return cls(_core.Policy.uniform(core_world(world), check.levels(levels)))
+
+    @classmethod
+    def random(cls, world: TargetTracking, levels: Sequence[int], seed: int = 0) -> Policy:
+        """A policy with random rows (each entry uniform in (0, 1], then normalised), drawn from ``seed``."""
+        return cls(_core.Policy.random(core_world(world), check.levels(levels), check.seed(seed)))
+
+    @classmethod
+    def from_tables(
+        cls,
+        tables: Mapping[str, Any],
+        world: TargetTracking | None = None,
+        provenance: Mapping[str, Any] | None = None,
+    ) -> Policy:
+        """A policy from its tables (as returned by :attr:`tables`; arrays or nested lists).
+
+        The levels, ``Y`` and ``D`` are read from the shapes; every shape, entry and row is then
+        checked. With ``world``, the policy must fit it and is stored with it.
+
+        Raises:
+            PolicyFormatError: a missing table, a wrong shape (the message names the table and the
+                expected shape), a negative or non-finite entry, a row not summing to 1.
+            PolicyMismatchError: the tables do not fit ``world``.
+        """
+        if not isinstance(tables, Mapping):
+            raise PolicyFormatError(f"tables is {type(tables).__name__} (expected a dict with h0, h1 and upper)")
+        h0 = _array(tables, "h0")
+        h1 = _array(tables, "h1")
+        upper_entries = tables.get("upper", [])
+        if isinstance(upper_entries, Mapping) or not isinstance(upper_entries, Sequence):
+            raise PolicyFormatError("upper is not a list (expected [{'start': array, 'step': array}, ...])")
+        upper = []
+        for k, entry in enumerate(upper_entries):
+            if not isinstance(entry, Mapping):
+                raise PolicyFormatError(f"upper[{k}] is not a dict (expected {{'start': array, 'step': array}})")
+            upper.append((_array(entry, "start", f"upper[{k}]."), _array(entry, "step", f"upper[{k}].")))
+        core = None if world is None else core_world(world)
+        text = None if provenance is None else json.dumps(dict(provenance))
+        return cls(_core.Policy.from_tables(h0, h1, upper, core, text))
+
+    @classmethod
+    def load(cls, path: PathLike) -> Policy:
+        """Reads and checks a policy file (JSON, SPEC §6).
+
+        Raises:
+            PolicyFormatError: not a valid policy file; the message names the file, the table and
+                what was expected.
+            OSError: the file cannot be read (e.g. ``FileNotFoundError``).
+        """
+        return cls(_core.Policy.load(os.fspath(path)))
+
+    @classmethod
+    def from_json(cls, text: str) -> Policy:
+        """Reads and checks a policy document (SPEC §6) from its JSON text."""
+        if not isinstance(text, str):
+            raise check.invalid("text", text, "a str of JSON")
+        return cls(_core.Policy.from_json(text))
+
+    def save(self, path: PathLike) -> None:
+        """Writes the policy file (JSON, SPEC §6), atomically (through a temporary file)."""
+        self._core.save(os.fspath(path))
+
+    def to_json(self) -> str:
+        """The policy document (SPEC §6) as JSON text."""
+        return self._core.to_json()
+
+    # -- description ---------------------------------------------------------------------------
+
+    @property
+    def tables(self) -> Tables:
+        """The tables as float64 arrays (fresh copies; shapes in the class docstring)."""
+        return self._core.tables()
+
+    @property
+    def levels(self) -> list[int]:
+        """Memory sizes per level, bottom first."""
+        return self._core.levels
+
+    @property
+    def n_obs(self) -> int:
+        """Number of observations ``Y``."""
+        return self._core.n_obs
+
+    @property
+    def n_actions(self) -> int:
+        """Number of decisions ``D``."""
+        return self._core.n_actions
+
+    @property
+    def parameter_count(self) -> int:
+        """The paper's number of free parameters, start tables excluded (SPEC §2): 4320 for
+        levels ``[16, 16]`` with ``Y = D = 16``, 758 for ``[16, 2, 2, 2]``."""
+        return self._core.parameter_count
+
+    @property
+    def world(self) -> dict[str, Any]:
+        """The world the policy was made for, as stored in its file (empty when unknown)."""
+        return self._core.world
+
+    @property
+    def provenance(self) -> dict[str, Any]:
+        """How the policy was made (seed, samples, rho, iterations, mean reward, ...)."""
+        return self._core.provenance
+
+    # -- use ---------------------------------------------------------------------------------------
+
+    def evaluate(
+        self,
+        world: TargetTracking | None = None,
+        episodes: int = 10000,
+        seed: int = 0,
+        threads: int | None = None,
+    ) -> Evaluation:
+        """The reward over ``episodes`` fresh episodes (reproducible from ``seed``, whatever ``threads``).
+
+        Args:
+            world: the world (default: the one stored with the policy).
+            episodes: number of episodes.
+            seed: seed of the episodes; episode ``k`` is :meth:`rollout` ``(world, seed, episode=k)``.
+            threads: worker threads (default: one per core).
+
+        Raises:
+            PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
+        """
+        core = self._core.evaluate(
+            core_world(self._world(world)),
+            check.count("episodes", episodes),
+            check.seed(seed),
+            check.optional_count("threads", threads),
+        )
+        return Evaluation._from_dict(core)
+
+    def rollout(self, world: TargetTracking | None = None, seed: int = 0, episode: int = 0) -> Rollout:
+        """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``.
+
+        Returns:
+            a :class:`Rollout` with ``x`` (T × 8 for target tracking), ``x_labels``, ``y``, ``d``,
+            ``memory`` (T × Λ) and ``reward``.
+
+        Raises:
+            PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
+        """
+        out = self._core.rollout(core_world(self._world(world)), check.seed(seed), check.seed(episode, "episode"))
+        return Rollout(**out)
+
+    def _world(self, world: TargetTracking | None) -> TargetTracking:
+        if world is not None:
+            return world
+        stored = self.world
+        if not stored:
+            raise check.invalid("world", None, "a cehmm.TargetTracking: this policy has no stored world")
+        return TargetTracking.from_dict(stored)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Policy.from_json, (self.to_json(),))
+
+    def __repr__(self) -> str:
+        world = self.world
+        where = f", world={world.get('name', '?')} case {world.get('case', '?')}" if world else ""
+        mean = self.provenance.get("mean_reward")
+        score = f", mean_reward={mean:.2f}" if isinstance(mean, (int, float)) else ""
+        return (
+            f"Policy(levels={self.levels}, n_obs={self.n_obs}, n_actions={self.n_actions}, "
+            f"parameters={self.parameter_count}{where}{score})"
+        )
+
+
+def _array(tables: Mapping[str, Any], key: str, prefix: str = "") -> np.ndarray:
+    """A table as a C-contiguous float64 array, or a :class:`PolicyFormatError` naming it."""
+    if key not in tables:
+        raise PolicyFormatError(f"{prefix}{key} is missing")
+    try:
+        return np.ascontiguousarray(tables[key], dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise PolicyFormatError(f"{prefix}{key} is not an array of numbers ({e})") from None

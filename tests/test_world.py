@@ -1,0 +1,104 @@
+"""The target-tracking world as seen from Python (SPEC §4)."""
+
+from __future__ import annotations
+
+import pickle
+
+import pytest
+
+import cehmm
+
+PARAMETERS = {
+    "case",
+    "width",
+    "height",
+    "horizon",
+    "start_b",
+    "start_c",
+    "start_heading",
+    "reward_radius",
+    "observe_radius",
+    "target_cell",
+    "target_rows",
+}
+
+
+def test_defaults_follow_the_spec(case3: cehmm.TargetTracking) -> None:
+    assert case3.case == 3
+    assert (case3.n_observations, case3.n_decisions, case3.horizon) == (16, 16, 100)
+    params = case3.params
+    assert set(params) == PARAMETERS
+    assert params["width"] == params["height"] == 20
+    assert params["start_b"] == [0, 19] and params["start_c"] == [19, 19]
+    assert params["target_cell"] == [10, 10] and params["target_rows"] == [0, 9]
+    assert cehmm.TargetTracking().params == params
+
+
+def test_case_2_has_a_single_observation(case2: cehmm.TargetTracking) -> None:
+    assert case2.n_observations == 1
+    assert case2.n_decisions == 16
+
+
+def test_parameters_are_applied_and_shown() -> None:
+    world = cehmm.TargetTracking(case=1, horizon=50, target_cell=(5, 6))
+    assert world.horizon == 50
+    assert world.params["target_cell"] == [5, 6]
+    assert repr(world) == "TargetTracking(case=1, horizon=50, target_cell=[5, 6])"
+    assert world.to_dict() == {"name": "target-tracking", **world.params}
+
+
+def test_case_1_optimum_is_86(case1: cehmm.TargetTracking) -> None:
+    assert case1.optimum() == 86
+    # The nearer mobile needs 14 moves whatever the horizon.
+    assert cehmm.TargetTracking(case=1, horizon=50).optimum() == 36
+
+
+def test_optimum_is_refused_outside_case_1(case3: cehmm.TargetTracking) -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match="case 1 only"):
+        case3.optimum()
+
+
+@pytest.mark.parametrize("case", [0, 4, -1, 256])
+def test_bad_case_is_refused(case: int) -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match=rf"case: {case}\b"):
+        cehmm.TargetTracking(case=case)
+
+
+def test_unknown_parameter_is_named_with_the_valid_ones() -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match="bogus") as error:
+        cehmm.TargetTracking(bogus=1)
+    for name in PARAMETERS:
+        assert name in str(error.value)
+
+
+@pytest.mark.parametrize(
+    ("params", "named"),
+    [
+        ({"horizon": 0}, "horizon"),
+        ({"horizon": -3}, "horizon"),
+        ({"horizon": 1.5}, "horizon"),
+        ({"width": True}, "width"),
+        ({"start_b": [25, 0]}, "start_b"),
+        ({"start_b": [1]}, "start_b"),
+        ({"start_b": "ab"}, "start_b"),
+        ({"target_rows": [9, 0]}, "target_rows"),
+        ({"start_heading": 4}, "start_heading"),
+        ({"case": "3"}, "case"),
+    ],
+)
+def test_bad_parameter_values_are_named(params: dict, named: str) -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match=named):
+        cehmm.TargetTracking(**params)
+
+
+def test_worlds_compare_hash_and_pickle_by_parameters() -> None:
+    a = cehmm.TargetTracking(case=2, horizon=30)
+    b = cehmm.TargetTracking.from_dict(a.to_dict())
+    assert a == b and hash(a) == hash(b)
+    assert a != cehmm.TargetTracking(case=2)
+    assert pickle.loads(pickle.dumps(a)) == a
+
+
+def test_from_dict_checks_the_name() -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match="world.name"):
+        cehmm.TargetTracking.from_dict({"name": "cart-pole", "case": 1})
