@@ -342,7 +342,7 @@ pub fn update(policy: &mut Hhmm, counts: &[u32], smoothing: f64) {
             }
         }
     }
-    policy.recumulate();
+    policy.rebuild_samplers();
 }
 
 /// A uniform policy for `levels` sized for `world`.

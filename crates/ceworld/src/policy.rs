@@ -1,7 +1,8 @@
 //! The policy family: a hierarchical HMM with input and output (SPEC §2).
 //!
-//! Every conditional table is a block of rows in one flat `Vec<f64>`; rows are also kept
-//! pre-cumulated for sampling. Table order: `h0`, `h1`, then for each level `l = 2..=Λ` its
+//! Every conditional table is a block of rows in one flat `Vec<f64>`; each row also has an
+//! alias table (Walker/Vose) so that a draw costs one random number and one or two reads,
+//! whatever the row's length. Table order: `h0`, `h1`, then for each level `l = 2..=Λ` its
 //! `start` and `step` tables. Row layouts follow the policy file (SPEC §6): `h0[m1]`,
 //! `h1[y][u]`, `start[u]`, `step[p][u]` flattened row-major.
 
@@ -144,12 +145,20 @@ impl Layout {
     }
 }
 
-/// A hierarchical HMM policy: the tables and their cumulated rows.
+/// One column of a row's alias table: keep the column when the low 32 random bits are below
+/// `threshold`, else take `alias`. A column with `alias` equal to itself is always kept.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct AliasEntry {
+    threshold: u32,
+    alias: u32,
+}
+
+/// A hierarchical HMM policy: the tables and their alias tables for sampling.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Hhmm {
     layout: Layout,
     probs: Vec<f64>,
-    cumulative: Vec<f64>,
+    alias: Vec<AliasEntry>,
 }
 
 impl Hhmm {
@@ -198,21 +207,18 @@ impl Hhmm {
     }
 
     fn from_parts(layout: Layout, probs: Vec<f64>) -> Hhmm {
-        let mut h = Hhmm { cumulative: vec![0.0; probs.len()], layout, probs };
-        h.recumulate();
+        let mut h = Hhmm { alias: vec![AliasEntry::default(); probs.len()], layout, probs };
+        h.rebuild_samplers();
         h
     }
 
-    /// Rebuilds the cumulated rows after the probabilities changed.
-    pub(crate) fn recumulate(&mut self) {
+    /// Rebuilds every row's alias table after the probabilities changed (Vose's method).
+    pub(crate) fn rebuild_samplers(&mut self) {
+        let (mut small, mut large, mut scaled) = (Vec::new(), Vec::new(), Vec::new());
         for t in &self.layout.tables {
             let range = t.offset..t.offset + t.rows * t.cols;
-            for (p, c) in self.probs[range.clone()].chunks(t.cols).zip(self.cumulative[range].chunks_mut(t.cols)) {
-                let mut acc = 0.0;
-                for (x, y) in p.iter().zip(c.iter_mut()) {
-                    acc += x;
-                    *y = acc;
-                }
+            for (p, a) in self.probs[range.clone()].chunks(t.cols).zip(self.alias[range].chunks_mut(t.cols)) {
+                build_alias(p, a, &mut small, &mut large, &mut scaled);
             }
         }
     }
@@ -242,20 +248,15 @@ impl Hhmm {
         &self.probs[t.offset..t.offset + t.rows * t.cols]
     }
 
-    /// Draws an outcome of row `row` of table `table`.
+    /// Draws an outcome of row `row` of table `table`: the high 32 random bits pick a column
+    /// uniformly, the low 32 bits keep it or take its alias.
     #[inline]
     fn draw(&self, table: usize, row: usize, rng: &mut EngineRng) -> usize {
         let t = &self.layout.tables[table];
-        let start = t.offset + row * t.cols;
-        let cum = &self.cumulative[start..start + t.cols];
-        // Scaling by the row's own total keeps sampling exact when rounding leaves it at 1 ± ε;
-        // the drawn index always has a positive probability.
-        let u = (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64) * cum[t.cols - 1];
-        if t.cols <= 32 {
-            cum.iter().position(|&c| u < c).unwrap_or(t.cols - 1)
-        } else {
-            cum.partition_point(|&c| c <= u).min(t.cols - 1)
-        }
+        let x = rng.next_u64();
+        let column = (((x >> 32) * t.cols as u64) >> 32) as usize;
+        let entry = self.alias[t.offset + row * t.cols + column];
+        if (x as u32) < entry.threshold { column } else { entry.alias as usize }
     }
 
     /// One step of top-down sampling (SPEC §2). `memory[l - 1]` holds `m_l[t - 1]` on entry and
@@ -277,6 +278,41 @@ impl Hhmm {
         let m1 = self.draw(1, y * self.layout.upper_size(1) + u, rng);
         memory[0] = m1 as u16;
         self.draw(0, m1, rng)
+    }
+}
+
+/// Fills `alias` for the row `probs` (any non-negative weights with a positive sum). Zero-weight
+/// columns are paired first, so rounding can never leave one of them drawable.
+fn build_alias(
+    probs: &[f64],
+    alias: &mut [AliasEntry],
+    small: &mut Vec<usize>,
+    large: &mut Vec<usize>,
+    scaled: &mut Vec<f64>,
+) {
+    let n = probs.len();
+    let total: f64 = probs.iter().sum();
+    scaled.clear();
+    scaled.extend(probs.iter().map(|p| p * n as f64 / total));
+    small.clear();
+    large.clear();
+    // `small` is a stack: push the zero columns last so that they are paired first.
+    small.extend((0..n).filter(|&k| scaled[k] < 1.0 && scaled[k] > 0.0));
+    small.extend((0..n).filter(|&k| scaled[k] == 0.0));
+    large.extend((0..n).filter(|&k| scaled[k] >= 1.0));
+    const SCALE: f64 = 4_294_967_296.0; // 2^32
+    while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+        small.pop();
+        alias[s] = AliasEntry { threshold: (scaled[s] * SCALE) as u32, alias: l as u32 };
+        scaled[l] -= 1.0 - scaled[s];
+        if scaled[l] < 1.0 {
+            large.pop();
+            small.push(l);
+        }
+    }
+    // What is left has scaled weight 1 up to rounding: always keep it.
+    for &k in small.iter().chain(large.iter()) {
+        alias[k] = AliasEntry { threshold: u32::MAX, alias: k as u32 };
     }
 }
 
