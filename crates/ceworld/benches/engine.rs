@@ -34,6 +34,39 @@ fn episode(c: &mut Criterion) {
     group.finish();
 }
 
+/// One world step and one policy step alone, over a batch of 1000 to amortise the loop.
+fn steps(c: &mut Criterion) {
+    let world = TargetTracking::new(3).unwrap();
+    let mut group = c.benchmark_group("step_x1000");
+    group.throughput(Throughput::Elements(1000));
+    let mut rng = stream(0, Purpose::Optimise, 0, 0);
+    let mut state = world.reset(&mut rng);
+    group.bench_function("world (observe + step)", |b| {
+        b.iter(|| {
+            let mut acc = 0;
+            for k in 0..1000 {
+                acc += world.observe(&state, &mut rng);
+                world.step(&mut state, k & 15, &mut rng);
+            }
+            black_box(acc)
+        })
+    });
+    for levels in MODELS {
+        let policy = random_policy(&world, levels, 1).unwrap();
+        let mut memory = vec![0u16; levels.len()];
+        group.bench_function(format!("policy {levels:?}"), |b| {
+            b.iter(|| {
+                let mut acc = 0;
+                for k in 0..1000 {
+                    acc += policy.step(k & 15, &mut memory, false, &mut rng);
+                }
+                black_box(acc)
+            })
+        });
+    }
+    group.finish();
+}
+
 fn ce_iteration(c: &mut Criterion) {
     let world = TargetTracking::new(3).unwrap();
     let mut group = c.benchmark_group("ce_iteration_N1000");
@@ -49,5 +82,5 @@ fn ce_iteration(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, episode, ce_iteration);
+criterion_group!(benches, steps, episode, ce_iteration);
 criterion_main!(benches);

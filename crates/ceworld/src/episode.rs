@@ -9,12 +9,27 @@ use crate::world::World;
 #[inline]
 pub fn run_recorded<W: World>(world: &W, policy: &Hhmm, rng: &mut EngineRng, record: &mut [u16]) -> f64 {
     let width = policy.layout().record_width();
-    run_with(world, policy, rng, |t, y, d, memory, _| {
-        let r = &mut record[t * width..(t + 1) * width];
-        r[0] = y as u16;
-        r[1] = d as u16;
-        r[2..].copy_from_slice(memory);
-    })
+    let mut storage = [0u16; 16];
+    let mut heap;
+    let memory: &mut [u16] = if width - 2 <= storage.len() {
+        &mut storage[..width - 2]
+    } else {
+        heap = vec![0u16; width - 2];
+        &mut heap
+    };
+    let mut state = world.reset(rng);
+    for (t, step) in record.chunks_exact_mut(width).take(world.horizon()).enumerate() {
+        let y = world.observe(&state, rng);
+        let d = policy.step(y, memory, t == 0, rng);
+        step[0] = y as u16;
+        step[1] = d as u16;
+        // An element loop: `copy_from_slice` calls memmove for these two-to-five-element copies.
+        for (slot, &m) in step[2..].iter_mut().zip(memory.iter()) {
+            *slot = m;
+        }
+        world.step(&mut state, d, rng);
+    }
+    world.reward(&state)
 }
 
 /// Runs one episode and returns `V`, calling `visit(t, y_t, d_t, m[t], x_t)` at every step

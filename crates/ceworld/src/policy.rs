@@ -159,6 +159,8 @@ pub struct Hhmm {
     layout: Layout,
     probs: Vec<f64>,
     alias: Vec<AliasEntry>,
+    /// `(offset, cols)` of every table, compact for the sampling loop.
+    spans: Vec<(usize, usize)>,
 }
 
 impl Hhmm {
@@ -207,7 +209,8 @@ impl Hhmm {
     }
 
     fn from_parts(layout: Layout, probs: Vec<f64>) -> Hhmm {
-        let mut h = Hhmm { alias: vec![AliasEntry::default(); probs.len()], layout, probs };
+        let spans = layout.tables.iter().map(|t| (t.offset, t.cols)).collect();
+        let mut h = Hhmm { alias: vec![AliasEntry::default(); probs.len()], spans, layout, probs };
         h.rebuild_samplers();
         h
     }
@@ -252,10 +255,10 @@ impl Hhmm {
     /// uniformly, the low 32 bits keep it or take its alias.
     #[inline]
     fn draw(&self, table: usize, row: usize, rng: &mut EngineRng) -> usize {
-        let t = &self.layout.tables[table];
+        let (offset, cols) = self.spans[table];
         let x = rng.next_u64();
-        let column = (((x >> 32) * t.cols as u64) >> 32) as usize;
-        let entry = self.alias[t.offset + row * t.cols + column];
+        let column = (((x >> 32) * cols as u64) >> 32) as usize;
+        let entry = self.alias[offset + row * cols + column];
         if (x as u32) < entry.threshold { column } else { entry.alias as usize }
     }
 

@@ -19,6 +19,8 @@ pub enum Purpose {
     Evaluate = 3,
     /// Random initial tables.
     Init = 4,
+    /// The single sequential stream of a Q-learning run (its state is saved in checkpoints).
+    QLearning = 5,
 }
 
 /// SplitMix64's finaliser: a bijective 64-bit mixer with good avalanche.

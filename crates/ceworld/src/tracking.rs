@@ -118,35 +118,26 @@ impl Mobile {
     /// Applies one move (`TURN_LEFT`, `TURN_RIGHT`, `FORWARD`, `NO_MOVE`) on a `width × height` grid.
     #[inline]
     pub fn apply(self, action: usize, width: i32, height: i32) -> Mobile {
-        match action {
-            TURN_LEFT => Mobile { heading: (self.heading + 3) % 4, ..self },
-            TURN_RIGHT => Mobile { heading: (self.heading + 1) % 4, ..self },
-            FORWARD => {
-                let (di, dj) = match self.heading {
-                    UP => (0, -1),
-                    RIGHT => (1, 0),
-                    DOWN => (0, 1),
-                    _ => (-1, 0),
-                };
-                let (i, j) = (self.i + di, self.j + dj);
-                if (0..width).contains(&i) && (0..height).contains(&j) { Mobile { i, j, ..self } } else { self }
-            }
-            _ => self,
-        }
+        // Table-driven rather than a match: the decisions are random, so branches would mispredict.
+        const TURN: [u8; 4] = [3, 1, 0, 0];
+        const DI: [i32; 4] = [0, 1, 0, -1];
+        const DJ: [i32; 4] = [-1, 0, 1, 0];
+        let action = action & 3;
+        let forward = (action == FORWARD) as i32;
+        let h = (self.heading & 3) as usize;
+        let (i, j) = (self.i + forward * DI[h], self.j + forward * DJ[h]);
+        let inside = (0..width).contains(&i) & (0..height).contains(&j);
+        let heading = (self.heading + TURN[action]) & 3;
+        if inside { Mobile { i, j, heading } } else { Mobile { heading, ..self } }
     }
 
     /// The mobile's 2-bit observation of the target: bit 0 = target strictly ahead,
     /// bit 1 = `d∞ < observe_radius`.
     #[inline]
     pub fn observe(self, target: [i32; 2], observe_radius: i32) -> usize {
-        let ahead = match self.heading {
-            UP => target[1] < self.j,
-            RIGHT => target[0] > self.i,
-            DOWN => target[1] > self.j,
-            _ => target[0] < self.i,
-        };
+        let ahead = [target[1] < self.j, target[0] > self.i, target[1] > self.j, target[0] < self.i];
         let near = chebyshev(self.cell(), target) < observe_radius;
-        ahead as usize | ((near as usize) << 1)
+        ahead[(self.heading & 3) as usize] as usize | ((near as usize) << 1)
     }
 }
 
@@ -238,25 +229,30 @@ impl TargetTracking {
     /// proportional to `|r' − B|² + |r' − C|²`.
     #[inline]
     pub fn move_target(&self, target: [i32; 2], b: [i32; 2], c: [i32; 2], rng: &mut EngineRng) -> [i32; 2] {
-        let mut cells = [[0i32; 2]; 9];
+        // The weight of cell (i, j) is f(i) + g(j), with f(i) = (i − b_i)² + (i − c_i)² and g(j)
+        // likewise, or 0 off the grid. Branch-free: the nine cumulated weights are compared with
+        // the draw and the comparisons summed, so no mispredicted branch depends on the draw.
+        let (w, h) = (self.params.width, self.params.height);
+        let mut f = [0u64; 3];
+        let mut g = [0u64; 3];
+        for k in 0..3 {
+            let (i, j) = (target[0] + k as i32 - 1, target[1] + k as i32 - 1);
+            let (di, dj) = ((i - b[0]) as i64, (j - b[1]) as i64);
+            let (ei, ej) = ((i - c[0]) as i64, (j - c[1]) as i64);
+            let inside_i = (0..w).contains(&i) as u64;
+            let inside_j = (0..h).contains(&j) as u64;
+            // Bit 62 flags an off-grid column or row; a flagged cell gets weight 0 below.
+            f[k] = ((di * di + ei * ei) as u64) | (u64::from(inside_i == 0) << 62);
+            g[k] = ((dj * dj + ej * ej) as u64) | (u64::from(inside_j == 0) << 62);
+        }
         let mut cumulative = [0u64; 9];
-        let mut n = 0;
         let mut total = 0u64;
-        for dj in -1..=1 {
-            let j = target[1] + dj;
-            if !(0..self.params.height).contains(&j) {
-                continue;
-            }
-            for di in -1..=1 {
-                let i = target[0] + di;
-                if !(0..self.params.width).contains(&i) {
-                    continue;
-                }
-                let sq = |m: [i32; 2]| ((i - m[0]) * (i - m[0]) + (j - m[1]) * (j - m[1])) as u64;
-                total += sq(b) + sq(c);
-                cells[n] = [i, j];
-                cumulative[n] = total;
-                n += 1;
+        for r in 0..3 {
+            for k in 0..3 {
+                let off_grid = (f[k] | g[r]) >> 62;
+                let weight = (f[k] + g[r]) * (1 - off_grid);
+                total += weight;
+                cumulative[3 * r + k] = total;
             }
         }
         if total == 0 {
@@ -264,8 +260,8 @@ impl TargetTracking {
         }
         // Multiply-shift maps 64 random bits onto 0..total; the bias (< total / 2^64) is nil.
         let x = ((rng.next_u64() as u128 * total as u128) >> 64) as u64;
-        let k = cumulative[..n].iter().position(|&c| x < c).unwrap_or(n - 1);
-        cells[k]
+        let index: usize = cumulative.iter().map(|&c| (x >= c) as usize).sum();
+        [target[0] + (index % 3) as i32 - 1, target[1] + (index / 3) as i32 - 1]
     }
 
     /// The state `x_1` with the target at `target`.
