@@ -254,11 +254,21 @@ pub fn optimize<W: World>(
                 *reward = run_recorded(world, &policy, &mut rng, record);
             })
         });
-        for (k, key) in keys.iter_mut().enumerate() {
-            *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
+        pool.install(|| {
+            keys.par_iter_mut().enumerate().for_each(|(k, key)| {
+                *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
+            })
+        });
+        // A strict total order (reward, then random key, then index): the elite set is the
+        // same whatever the algorithm, and selection is O(N) where a sort would be O(N log N).
+        let better =
+            |&a: &usize, &b: &usize| rewards[b].total_cmp(&rewards[a]).then(keys[a].cmp(&keys[b])).then(a.cmp(&b));
+        order.iter_mut().enumerate().for_each(|(k, o)| *o = k);
+        if elite_count < n {
+            order.select_nth_unstable_by(elite_count - 1, better);
         }
-        order.sort_unstable_by(|&a, &b| rewards[b].total_cmp(&rewards[a]).then(keys[a].cmp(&keys[b])));
         let elite = &order[..elite_count];
+        let threshold = elite.iter().copied().max_by(better).expect("the elite is never empty");
         let counts = pool.install(|| {
             elite
                 .par_chunks(chunk)
@@ -284,12 +294,12 @@ pub fn optimize<W: World>(
         } else {
             unsuccessful += 1;
         }
-        update(&mut policy, &counts, config.smoothing);
+        pool.install(|| policy.refit(&counts, config.smoothing));
         let record = IterationRecord {
             iteration,
             mean,
-            best: rewards[order[0]],
-            elite_threshold: rewards[elite[elite_count - 1]],
+            best: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            elite_threshold: rewards[threshold],
             elite_mean: elite.iter().map(|&k| rewards[k]).sum::<f64>() / elite_count as f64,
             seconds: started.elapsed().as_secs_f64(),
             successful,
@@ -322,27 +332,6 @@ pub fn optimize<W: World>(
         evaluation,
         seconds: started.elapsed().as_secs_f64(),
     })
-}
-
-/// The CE update: each row with counts becomes `α·counts/total + (1 − α)·old`; rows without
-/// counts keep their values.
-pub fn update(policy: &mut Hhmm, counts: &[u32], smoothing: f64) {
-    let tables = policy.layout().tables.clone();
-    let probs = policy.probs_mut();
-    for t in &tables {
-        let range = t.offset..t.offset + t.rows * t.cols;
-        for (row, c) in probs[range.clone()].chunks_mut(t.cols).zip(counts[range].chunks(t.cols)) {
-            let total: u64 = c.iter().map(|&x| x as u64).sum();
-            if total == 0 {
-                continue;
-            }
-            let inv = 1.0 / total as f64;
-            for (p, &x) in row.iter_mut().zip(c) {
-                *p = smoothing * (x as f64 * inv) + (1.0 - smoothing) * *p;
-            }
-        }
-    }
-    policy.rebuild_samplers();
 }
 
 /// A uniform policy for `levels` sized for `world`.

@@ -7,6 +7,7 @@
 //! `h1[y][u]`, `start[u]`, `step[p][u]` flattened row-major.
 
 use rand::{Rng, RngExt};
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::rng::EngineRng;
@@ -217,12 +218,38 @@ impl Hhmm {
 
     /// Rebuilds every row's alias table after the probabilities changed (Vose's method).
     pub(crate) fn rebuild_samplers(&mut self) {
-        let (mut small, mut large, mut scaled) = (Vec::new(), Vec::new(), Vec::new());
+        let mut scratch = AliasScratch::default();
         for t in &self.layout.tables {
             let range = t.offset..t.offset + t.rows * t.cols;
             for (p, a) in self.probs[range.clone()].chunks(t.cols).zip(self.alias[range].chunks_mut(t.cols)) {
-                build_alias(p, a, &mut small, &mut large, &mut scaled);
+                build_alias(p, a, &mut scratch);
             }
+        }
+    }
+
+    /// The CE update (SPEC §3): each row with counts becomes `α·counts/total + (1 − α)·old`;
+    /// rows without counts keep their values. `counts` is laid out as the tables. Rows are
+    /// refitted in parallel (on the current rayon pool); each row's result is independent of
+    /// the split, so the update is bit-identical whatever the number of threads.
+    pub fn refit(&mut self, counts: &[u32], smoothing: f64) {
+        assert_eq!(counts.len(), self.probs.len(), "counts laid out as the tables");
+        for t in &self.layout.tables {
+            let range = t.offset..t.offset + t.rows * t.cols;
+            let rows = self.probs[range.clone()]
+                .par_chunks_mut(t.cols)
+                .zip(self.alias[range.clone()].par_chunks_mut(t.cols))
+                .zip(counts[range].par_chunks(t.cols));
+            rows.for_each_init(AliasScratch::default, |scratch, ((row, alias), c)| {
+                let total: u64 = c.iter().map(|&x| x as u64).sum();
+                if total == 0 {
+                    return;
+                }
+                let inv = 1.0 / total as f64;
+                for (p, &x) in row.iter_mut().zip(c) {
+                    *p = smoothing * (x as f64 * inv) + (1.0 - smoothing) * *p;
+                }
+                build_alias(row, alias, scratch);
+            });
         }
     }
 
@@ -239,10 +266,6 @@ impl Hhmm {
     /// All table entries, flat, in layout order.
     pub fn probs(&self) -> &[f64] {
         &self.probs
-    }
-
-    pub(crate) fn probs_mut(&mut self) -> &mut [f64] {
-        &mut self.probs
     }
 
     /// The entries of table `index` (see [`Layout::tables`]), row-major.
@@ -284,15 +307,18 @@ impl Hhmm {
     }
 }
 
+/// Reused buffers of [`build_alias`].
+#[derive(Default)]
+struct AliasScratch {
+    small: Vec<usize>,
+    large: Vec<usize>,
+    scaled: Vec<f64>,
+}
+
 /// Fills `alias` for the row `probs` (any non-negative weights with a positive sum). Zero-weight
 /// columns are paired first, so rounding can never leave one of them drawable.
-fn build_alias(
-    probs: &[f64],
-    alias: &mut [AliasEntry],
-    small: &mut Vec<usize>,
-    large: &mut Vec<usize>,
-    scaled: &mut Vec<f64>,
-) {
+fn build_alias(probs: &[f64], alias: &mut [AliasEntry], scratch: &mut AliasScratch) {
+    let AliasScratch { small, large, scaled } = scratch;
     let n = probs.len();
     let total: f64 = probs.iter().sum();
     scaled.clear();
