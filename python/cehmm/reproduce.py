@@ -1,0 +1,1086 @@
+"""Reproduces the paper's results table (SPEC §5, Q-learning rows excepted) and writes a report.
+
+Every row of the table is run over several seeds; each (row, seed, settings) job optimises a
+policy, evaluates it on fresh episodes and appends one line to a JSON-lines file, so that a run
+can be stopped (Ctrl-C) and resumed. From that file come ``results.json``, ``results.csv``, a
+markdown report (``docs/results.md`` by default) and its figures (``docs/img/``).
+
+Usage::
+
+    python -m cehmm.reproduce                      # every row, 5 seeds, the paper's settings
+    cehmm reproduce --seeds 3 --jobs 2             # 2 worker processes of 1 thread each
+    cehmm reproduce --rows 'c3-*-strong'           # a subset of rows (ids or glob patterns)
+    cehmm reproduce --set smoothing=0.7            # any optimize() keyword, for every row
+    cehmm reproduce --report-only                  # rebuild the outputs from the JSONL only
+    cehmm reproduce --quick --out-dir /tmp/q       # a seconds-long smoke run
+
+Rows (:data:`ROWS`) and settings presets (:data:`SETTINGS`) are plain data: a new preset is a new
+entry of :data:`SETTINGS` (or a JSON file given to ``--settings``), mapping ``"*"`` (every row)
+and row ids to keyword arguments of :func:`cehmm.optimize`, passed through unchanged.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import csv
+import datetime as _dt
+import fnmatch
+import json
+import multiprocessing
+import os
+import platform
+import re
+import shlex
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: The paper's best mean reward for case 3; its percentages are of this figure (SPEC §5).
+PAPER_BEST = 69.0
+
+WEAK = 100
+STRONG = 500
+
+
+def _row(
+    case: int,
+    levels: list[int],
+    criterion: str,
+    group: str,
+    title: str,
+    paper_percent: float | None = None,
+    paper_reward: float | None = None,
+    paper_text: str | None = None,
+    note: str = "",
+) -> dict[str, Any]:
+    """One row of the table; the paper's figure is given as a reward or as a percentage of 69."""
+    if paper_reward is None:
+        paper_reward = round(PAPER_BEST * paper_percent / 100.0, 2)
+    if paper_percent is None:
+        paper_percent = round(100.0 * paper_reward / PAPER_BEST, 1)
+    return {
+        "id": f"c{case}-{'x'.join(map(str, levels))}-{criterion}",
+        "title": title,
+        "group": group,
+        "case": case,
+        "levels": list(levels),
+        "criterion": criterion,
+        "optimize": {"patience": WEAK if criterion == "weak" else STRONG},
+        "paper_reward": float(paper_reward),
+        "paper_percent": float(paper_percent),
+        "paper_text": paper_text or f"{paper_reward:.1f}",
+        "note": note,
+    }
+
+
+#: The rows of SPEC §5 run here (the Q-learning rows are another module's). ``optimize`` holds the
+#: row's own keyword arguments of :func:`cehmm.optimize` (the stopping criterion); ``paper_*`` the
+#: paper's figure. The case-3 Λ = 1 row doubles as the hierarchic grade 1 under the weak criterion.
+ROWS: list[dict[str, Any]] = [
+    _row(
+        1,
+        [16],
+        "weak",
+        "cases",
+        "case 1 (fixed target)",
+        paper_reward=84,
+        paper_text="84",
+        note="optimum 85 in the paper's counting, 86 under SPEC §4; a deterministic memoryless policy "
+        "reaches at most 83 (docs/engine-results.md)",
+    ),
+    _row(2, [16, 16], "weak", "cases", "case 2 (blind target)", paper_reward=32, paper_text="≈ 32"),
+    _row(3, [16], "weak", "memory", "case 3, Λ = 1 (also hierarchic grade 1)", 78),
+    _row(3, [16, 16], "weak", "memory", "case 3, Λ = 2", 94),
+    _row(3, [32, 32], "weak", "memory", "case 3, Λ = 2", 96),
+    _row(3, [64, 64], "weak", "memory", "case 3, Λ = 2", 97),
+    _row(3, [256, 256], "weak", "memory", "case 3, Λ = 2", 97),
+    _row(3, [16, 2], "weak", "hierarchy", "case 3, hierarchic grade 2", 85),
+    _row(3, [16, 2, 2], "weak", "hierarchy", "case 3, hierarchic grade 3", 81),
+    _row(3, [16, 2, 2, 2], "weak", "hierarchy", "case 3, hierarchic grade 4", 94),
+    _row(3, [16], "strong", "hierarchy", "case 3, hierarchic grade 1", 80),
+    _row(3, [16, 2], "strong", "hierarchy", "case 3, hierarchic grade 2", 88),
+    _row(3, [16, 2, 2], "strong", "hierarchy", "case 3, hierarchic grade 3", 93),
+    _row(3, [16, 2, 2, 2], "strong", "hierarchy", "case 3, hierarchic grade 4", 96),
+    _row(3, [256, 256], "strong", "headline", "case 3, Λ = 2, the paper's best", 100, paper_text="≈ 69"),
+]
+
+#: Settings presets: name -> {"*": kwargs for every row, row id: kwargs for that row}. The kwargs
+#: go straight to :func:`cehmm.optimize` (``levels`` included) after the row's own ones.
+SETTINGS: dict[str, dict[str, dict[str, Any]]] = {
+    # The paper's basic CE: N = 1000, ρ = 0.5, α = 1, uniform initial tables.
+    "paper": {"*": {"samples": 1000, "rho": 0.5, "smoothing": 1.0}},
+    # The smoke run of --quick: a few small iterations, small models.
+    "quick": {
+        "*": {"samples": 100, "rho": 0.5, "smoothing": 1.0, "max_iterations": 5, "eval_episodes": 200},
+        "c3-16-weak": {"levels": [4]},
+        "c3-16x16-weak": {"levels": [4, 4]},
+    },
+}
+
+QUICK_ROWS = ["c3-16-weak", "c3-16x16-weak"]
+QUICK_SEEDS = 2
+
+#: Keys of every JSONL line (one finished job).
+RECORD_KEYS = (
+    "row",
+    "seed",
+    "settings",
+    "case",
+    "levels",
+    "kwargs",
+    "mean",
+    "std_error",
+    "std",
+    "min",
+    "max",
+    "eval_episodes",
+    "best_mean",
+    "iterations",
+    "best_iteration",
+    "stop_reason",
+    "seconds",
+    "threads",
+    "policy",
+    "history",
+    "finished",
+    "run",
+    "command",
+    "machine",
+    "version",
+)
+
+JSONL_NAME = "reproduce.jsonl"
+
+
+# -- rows and settings -----------------------------------------------------------------------------
+
+
+def rows_by_id() -> dict[str, dict[str, Any]]:
+    return {row["id"]: row for row in ROWS}
+
+
+def select_rows(patterns: Sequence[str] | None) -> list[dict[str, Any]]:
+    """The rows whose id matches one of ``patterns`` (ids or glob patterns), in table order."""
+    if not patterns:
+        return list(ROWS)
+    chosen = [row for row in ROWS if any(fnmatch.fnmatchcase(row["id"], p) for p in patterns)]
+    unknown = [p for p in patterns if not any(fnmatch.fnmatchcase(row["id"], p) for row in ROWS)]
+    if unknown:
+        raise SystemExit(f"unknown row(s) {', '.join(unknown)}; rows are: {', '.join(r['id'] for r in ROWS)}")
+    return chosen
+
+
+def load_preset(name: str) -> tuple[str, dict[str, dict[str, Any]]]:
+    """A preset by name, or from a JSON file ``{"*": {...}, "row-id": {...}}`` (named after the file)."""
+    if name in SETTINGS:
+        return name, SETTINGS[name]
+    path = Path(name)
+    if path.suffix == ".json" and path.is_file():
+        preset = json.loads(path.read_text())
+        if not isinstance(preset, dict) or not all(isinstance(v, dict) for v in preset.values()):
+            raise SystemExit(f'{path}: expected {{"*": {{...}}, "row-id": {{...}}}} of optimize() keywords')
+        return path.stem, preset
+    raise SystemExit(f"unknown settings {name!r}: presets are {', '.join(SETTINGS)} (or a .json file)")
+
+
+def job_kwargs(row: dict[str, Any], preset: dict[str, dict[str, Any]], extra: dict[str, Any]) -> dict[str, Any]:
+    """The keyword arguments of :func:`cehmm.optimize` for ``row``: row < preset["*"] < preset[row] < extra."""
+    kwargs: dict[str, Any] = {"levels": list(row["levels"]), **row["optimize"]}
+    kwargs.update(preset.get("*", {}))
+    kwargs.update(preset.get(row["id"], {}))
+    kwargs.update(extra)
+    return kwargs
+
+
+def parse_set(items: Sequence[str]) -> dict[str, Any]:
+    """``["smoothing=0.7", "levels=[8,8]"]`` -> ``{"smoothing": 0.7, "levels": [8, 8]}`` (values as JSON)."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise SystemExit(f"--set {item!r}: expected KEY=VALUE")
+        try:
+            out[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key.strip()] = value
+    return out
+
+
+def settings_label(name: str, extra: dict[str, Any]) -> str:
+    """The settings part of a job's identity: the preset name, then each ``--set`` override."""
+    parts = [name] + [f"{k}={json.dumps(v, separators=(',', ':'))}" for k, v in sorted(extra.items())]
+    return "+".join(parts)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
+
+
+def job_stem(row_id: str, settings: str, seed: int) -> str:
+    return f"{row_id}__{_slug(settings)}__s{seed}"
+
+
+# -- the machine -----------------------------------------------------------------------------------
+
+
+def machine_info() -> dict[str, Any]:
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.lower().startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count() or 1,
+        "os": f"{platform.system()} {platform.release()}",
+        "python": platform.python_version(),
+    }
+
+
+# -- one job ---------------------------------------------------------------------------------------
+
+_IN_JOB = False
+_STOPPING = False
+
+
+def _prime_engine() -> None:
+    """Makes the engine create a numpy array once, before any job.
+
+    The compiled module looks numpy's C API up (a Python import) the first time it returns an
+    array; a KeyboardInterrupt pending at that moment makes it panic instead of returning the
+    interrupted result. Doing it here, outside any job, removes that window.
+    """
+    import cehmm
+
+    cehmm.Policy.uniform(cehmm.TargetTracking(case=1), [1]).tables  # noqa: B018
+
+
+def _worker_init() -> None:
+    """Worker processes: the first Ctrl-C of a job stops its optimisation (the engine returns it,
+    marked interrupted); later ones, and any between jobs, are ignored so the pool is not broken."""
+
+    def handler(signum: int, frame: Any) -> None:
+        global _STOPPING
+        if _IN_JOB and not _STOPPING:
+            _STOPPING = True
+            raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, handler)
+    _prime_engine()
+
+
+def run_job(job: dict[str, Any]) -> dict[str, Any]:
+    """Runs one (row, seed, settings) job and returns its JSONL record, or ``{"interrupted": True}``.
+
+    Writes the policy (SPEC §6 JSON) and the history (npz) under ``job["out_dir"]``.
+    """
+    global _IN_JOB, _STOPPING
+    import cehmm
+
+    _IN_JOB, _STOPPING = True, False
+    try:
+        world = cehmm.TargetTracking(case=job["case"])
+        kwargs = dict(job["kwargs"])
+        start = time.perf_counter()
+        result = cehmm.optimize(world, seed=job["seed"], threads=job["threads"], progress=job["progress"], **kwargs)
+        seconds = time.perf_counter() - start
+        if result.interrupted:
+            return {"interrupted": True}
+        out_dir = Path(job["out_dir"])
+        stem = job_stem(job["row"], job["settings"], job["seed"])
+        policy_path = Path("policies") / f"{stem}.json"
+        history_path = Path("histories") / f"{stem}.npz"
+        (out_dir / "policies").mkdir(parents=True, exist_ok=True)
+        (out_dir / "histories").mkdir(parents=True, exist_ok=True)
+        result.policy.save(out_dir / policy_path)
+        tmp = out_dir / "histories" / f".{stem}.tmp.npz"
+        np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.history.items()})
+        os.replace(tmp, out_dir / history_path)
+    except KeyboardInterrupt:
+        return {"interrupted": True}
+    except BaseException as e:  # a pyo3 panic is a BaseException; reported by the parent, which goes on
+        if isinstance(e, (SystemExit, GeneratorExit)):
+            raise
+        if _STOPPING:
+            return {"interrupted": True}
+        return {"error": f"{type(e).__name__}: {e}", "row": job["row"], "seed": job["seed"]}
+    finally:
+        _IN_JOB = False
+    e = result.evaluation
+    return {
+        "row": job["row"],
+        "seed": job["seed"],
+        "settings": job["settings"],
+        "case": job["case"],
+        "levels": list(result.policy.levels),
+        "kwargs": kwargs,
+        "mean": e.mean,
+        "std_error": e.std_error,
+        "std": e.std,
+        "min": e.min,
+        "max": e.max,
+        "eval_episodes": e.episodes,
+        "best_mean": result.best_mean,
+        "iterations": result.iterations,
+        "best_iteration": result.best_iteration,
+        "stop_reason": result.stop_reason,
+        "seconds": round(seconds, 3),
+        "threads": job["threads"] or (os.cpu_count() or 1),
+        "policy": policy_path.as_posix(),
+        "history": history_path.as_posix(),
+        "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "run": job["run"],
+        "command": job["command"],
+        "machine": job["machine"],
+        "version": cehmm.__version__,
+        "load": _load(),
+    }
+
+
+def _load() -> float | None:
+    """The 1-minute load average (other work on the machine slows the jobs down)."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (OSError, AttributeError):
+        return None
+
+
+# -- the JSONL file --------------------------------------------------------------------------------
+
+
+def read_records(path: Path) -> list[dict[str, Any]]:
+    """Every complete line of the JSONL file (a torn last line, from a killed run, is skipped)."""
+    records = []
+    if not path.exists():
+        return records
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            try:
+                records.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue
+    return records
+
+
+def append_record(path: Path, record: dict[str, Any]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as f:
+        f.write(json.dumps(record, separators=(",", ":")) + "\n")
+        f.flush()
+        os.fsync(f.fileno())
+
+
+# -- running ---------------------------------------------------------------------------------------
+
+
+def _fmt_duration(seconds: float) -> str:
+    seconds = max(0.0, seconds)
+    if seconds < 60:
+        return f"{seconds:.0f}s"
+    minutes, s = divmod(int(round(seconds)), 60)
+    if minutes < 60:
+        return f"{minutes}m{s:02d}s"
+    hours, m = divmod(minutes, 60)
+    return f"{hours}h{m:02d}m"
+
+
+class _Progress:
+    """One line per finished job, with the count and an ETA from the finished jobs' times."""
+
+    def __init__(self, jobs: list[dict[str, Any]], parallel: int, stream: Any = None) -> None:
+        self.pending = {(j["row"], j["seed"]) for j in jobs}
+        self.rows = {j["row"]: j for j in jobs}
+        self.total = len(jobs)
+        self.done = 0
+        self.parallel = max(1, parallel)
+        self.times: dict[str, list[float]] = {}
+        self.start = time.perf_counter()
+        self.stream = stream or sys.stdout
+
+    def finished(self, record: dict[str, Any]) -> None:
+        self.done += 1
+        self.pending.discard((record["row"], record["seed"]))
+        self.times.setdefault(record["row"], []).append(record["seconds"])
+        every = [t for ts in self.times.values() for t in ts]
+        overall = sum(every) / len(every)
+        left = sum(np.mean(self.times[row]) if row in self.times else overall for row, _ in self.pending)
+        eta = left / self.parallel
+        width = len(str(self.total))
+        print(
+            f"[{self.done:>{width}}/{self.total}] {record['row']:<20} seed {record['seed']}: "
+            f"{record['mean']:6.2f} ± {record['std_error']:.2f}  {record['iterations']:5d} it "
+            f"(best {record['best_iteration']}, {record['stop_reason']})  {record['seconds']:6.1f} s"
+            f"  | elapsed {_fmt_duration(time.perf_counter() - self.start)}, ETA {_fmt_duration(eta)}",
+            file=self.stream,
+            flush=True,
+        )
+
+
+class _Outcome:
+    """What a run of jobs came to."""
+
+    def __init__(self) -> None:
+        self.finished = 0
+        self.failed: list[str] = []
+        self.interrupted = False
+
+
+def run_jobs(jobs: list[dict[str, Any]], jsonl: Path, n_jobs: int) -> _Outcome:
+    """Runs ``jobs``, appending each finished one to ``jsonl`` as soon as it ends."""
+    progress = _Progress(jobs, n_jobs)
+    outcome = _Outcome()
+
+    def handle(record: dict[str, Any]) -> None:
+        if record.get("interrupted"):
+            outcome.interrupted = True
+        elif "error" in record:
+            message = f"{record.get('row')} seed {record.get('seed')}: {record['error']}"
+            outcome.failed.append(message)
+            print(f"FAILED {message}", file=sys.stderr, flush=True)
+        else:
+            append_record(jsonl, record)
+            outcome.finished += 1
+            progress.finished(record)
+
+    if n_jobs <= 1:
+        try:
+            _prime_engine()
+            for job in jobs:
+                handle(run_job(job))
+                if outcome.interrupted:
+                    break
+        except KeyboardInterrupt:
+            outcome.interrupted = True
+        return outcome
+
+    # At most one job per worker is handed out at a time, so that Ctrl-C leaves nothing queued:
+    # the running jobs see the same Ctrl-C (or the one forwarded to them) and return at once.
+    context = multiprocessing.get_context("spawn")
+    executor = cf.ProcessPoolExecutor(max_workers=n_jobs, mp_context=context, initializer=_worker_init)
+    queue = list(reversed(jobs))
+    running: set[cf.Future] = set()
+
+    def collect(done: set[cf.Future]) -> None:
+        for future in done:
+            try:
+                record = future.result()
+            except Exception as e:  # a worker died (BrokenProcessPool) or its error could not be sent back
+                record = {"error": f"{type(e).__name__}: {e}"}
+            handle(record)
+
+    try:
+        while queue or running:
+            while queue and len(running) < n_jobs and not outcome.interrupted:
+                running.add(executor.submit(run_job, queue.pop()))
+            if not running:
+                break
+            done, running = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            collect(done)
+    except KeyboardInterrupt:
+        outcome.interrupted = True
+        # Pass the Ctrl-C on, in case it reached this process only (a second one is ignored there).
+        for process in list(getattr(executor, "_processes", {}).values()):
+            try:
+                os.kill(process.pid, signal.SIGINT)
+            except (OSError, AttributeError):
+                pass
+        try:
+            done, _ = cf.wait(running)
+            collect(done)
+        except KeyboardInterrupt:
+            pass
+    finally:
+        executor.shutdown(wait=True, cancel_futures=True)
+    return outcome
+
+
+# -- aggregation -----------------------------------------------------------------------------------
+
+
+def status_text(ours: float, paper: float) -> str:
+    if ours >= paper:
+        return "≥ paper"
+    gap = paper - ours
+    return f"below paper by {gap:.1f} ({100.0 * gap / PAPER_BEST:.1f} pp)"
+
+
+def aggregate(records: list[dict[str, Any]], rows: list[dict[str, Any]], settings: str) -> list[dict[str, Any]]:
+    """One summary per row (rows without any finished job are left out), runs sorted by seed."""
+    out = []
+    for row in rows:
+        runs = sorted(
+            (r for r in records if r.get("row") == row["id"] and r.get("settings") == settings),
+            key=lambda r: r["seed"],
+        )
+        # The last line of a (row, seed) wins, should a job have been recorded twice.
+        runs = list({r["seed"]: r for r in runs}.values())
+        if not runs:
+            continue
+        means = np.array([r["mean"] for r in runs], dtype=float)
+        std = float(means.std(ddof=1)) if len(means) > 1 else 0.0
+        mean = float(means.mean())
+        out.append(
+            {
+                "row": row["id"],
+                "title": row["title"],
+                "group": row["group"],
+                "case": row["case"],
+                "levels": runs[0]["levels"],
+                "criterion": row["criterion"],
+                "settings": settings,
+                "kwargs": runs[0]["kwargs"],
+                "seeds": len(runs),
+                "paper_reward": row["paper_reward"],
+                "paper_percent": row["paper_percent"],
+                "paper_text": row["paper_text"],
+                "mean": mean,
+                "std": std,
+                "percent": 100.0 * mean / PAPER_BEST,
+                "percent_std": 100.0 * std / PAPER_BEST,
+                "min": float(means.min()),
+                "max": float(means.max()),
+                "iterations_mean": float(np.mean([r["iterations"] for r in runs])),
+                "seconds_mean": float(np.mean([r["seconds"] for r in runs])),
+                "status": status_text(mean, row["paper_reward"]),
+                "note": row["note"],
+                "runs": runs,
+            }
+        )
+    return out
+
+
+CSV_FIELDS = [
+    "row",
+    "title",
+    "case",
+    "levels",
+    "criterion",
+    "settings",
+    "seeds",
+    "paper_reward",
+    "paper_percent",
+    "mean",
+    "std",
+    "percent",
+    "percent_std",
+    "min",
+    "max",
+    "iterations_mean",
+    "seconds_mean",
+    "status",
+]
+
+
+def write_tables(summary: list[dict[str, Any]], meta: dict[str, Any], out_dir: Path) -> None:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    doc = {**meta, "paper_best": PAPER_BEST, "rows": summary}
+    _write_text(out_dir / "results.json", json.dumps(doc, indent=1, default=_json_default) + "\n")
+    tmp = out_dir / ".results.csv.tmp"
+    with open(tmp, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=CSV_FIELDS)
+        writer.writeheader()
+        for s in summary:
+            line = {k: s[k] for k in CSV_FIELDS}
+            line["levels"] = "x".join(map(str, s["levels"]))
+            for k in ("mean", "std", "percent", "percent_std", "min", "max", "iterations_mean", "seconds_mean"):
+                line[k] = f"{s[k]:.3f}"
+            writer.writerow(line)
+    os.replace(tmp, out_dir / "results.csv")
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def _write_text(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+# -- the report ------------------------------------------------------------------------------------
+
+
+def _repo_root() -> Path | None:
+    here = Path(__file__).resolve().parents[2]
+    for root in (here, Path.cwd()):
+        if (root / "docs" / "engine-results.md").exists():
+            return root
+    return None
+
+
+def _rel(target: Path, start: Path) -> str:
+    return Path(os.path.relpath(target.resolve(), start.resolve())).as_posix()
+
+
+def _link(target: Path, report_dir: Path) -> str:
+    """A link from the report to ``target``: relative when both are in one tree, else absolute."""
+    target, report_dir = target.resolve(), report_dir.resolve()
+    rel = os.path.relpath(target, report_dir)
+    return Path(rel).as_posix() if not rel.startswith(os.pardir + os.sep + os.pardir) else target.as_posix()
+
+
+def run_stats(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """Total job time and elapsed wall time of the runs that produced ``records``."""
+    runs: dict[str, list[dict[str, Any]]] = {}
+    for r in records:
+        runs.setdefault(r.get("run", "?"), []).append(r)
+    elapsed = 0.0
+    for run, rs in runs.items():
+        try:
+            start = _dt.datetime.fromisoformat(run)
+            end = max(_dt.datetime.fromisoformat(r["finished"]) for r in rs)
+            elapsed += (end - start).total_seconds()
+        except (ValueError, KeyError, TypeError):
+            elapsed += sum(r.get("seconds", 0.0) for r in rs)
+    return {
+        "job_seconds": float(sum(r.get("seconds", 0.0) for r in records)),
+        "elapsed_seconds": elapsed,
+        "runs": len(runs),
+        "jobs": len(records),
+    }
+
+
+def model_text(row: dict[str, Any]) -> str:
+    """``"case 3, Λ = 2, [16,16]"``: a row's title with its levels."""
+    return f"{row['title']}, [{','.join(map(str, row['levels']))}]"
+
+
+def _pm(mean: float, std: float, digits: int = 2) -> str:
+    return f"{mean:.{digits}f} ± {std:.{digits}f}"
+
+
+def render_report(
+    summary: list[dict[str, Any]],
+    records: list[dict[str, Any]],
+    settings: str,
+    report_path: Path,
+    figures: dict[str, Path],
+    findings_path: Path | None,
+    regenerate: str,
+    rollouts: int = 1000,
+) -> str:
+    report_dir = report_path.parent
+    stats = run_stats(records)
+    machines = {json.dumps(r.get("machine", {}), sort_keys=True) for r in records}
+    commands = sorted({r.get("command", "") for r in records if r.get("command")})
+    threads = sorted({r.get("threads") for r in records if r.get("threads")})
+    root = _repo_root()
+    lines: list[str] = []
+    add = lines.append
+    add("# Results: the paper's table reproduced")
+    add("")
+    add(
+        "Generated by `cehmm reproduce` (python/cehmm/reproduce.py) from its JSON-lines file; do not edit by "
+        "hand, regenerate it. Every figure of ours is the mean reward of the returned policy (the best "
+        "iteration's) **evaluated on fresh episodes**, then the mean ± standard deviation over seeds. The "
+        "paper's percentages are of 69, its best case-3 reward (SPEC §5); ours are given the same way."
+    )
+    add("")
+    eval_eps = sorted({r.get("eval_episodes") for r in records if r.get("eval_episodes")})
+    kw = summary[0]["kwargs"] if summary else {}
+    settings_text = ", ".join(f"{k} = {v}" for k, v in kw.items() if k not in ("levels", "patience"))
+    add(f"- **Settings**: `{settings}` ({settings_text}; patience 100 for the weak criterion, 500 for the strong).")
+    add(f"- **Evaluation**: {', '.join(f'{e:,}' for e in eval_eps)} fresh episodes per policy.")
+    add(
+        f"- **Jobs**: {stats['jobs']} (row × seed), {stats['runs']} invocation(s); total job time "
+        f"{_fmt_duration(stats['job_seconds'])}, elapsed {_fmt_duration(stats['elapsed_seconds'])}."
+    )
+    for m in sorted(machines):
+        info = json.loads(m)
+        if info:
+            add(
+                f"- **Machine**: {info.get('cpu', '?')}, {info.get('cores', '?')} cores, {info.get('os', '?')}, "
+                f"Python {info.get('python', '?')}; engine threads per job: {', '.join(map(str, threads))}."
+            )
+    loads = [r["load"] for r in records if r.get("load") is not None]
+    if loads:
+        add(
+            f"- **Load**: 1-minute load average at the end of the jobs {min(loads):.1f}–{max(loads):.1f} (mean "
+            f"{np.mean(loads):.1f}); above the number of cores, other work was running beside the jobs."
+        )
+    for c in commands:
+        add(f"- **Command**: `{c}`")
+    add(f"- **Regenerate this report** from the JSONL without running anything: `{regenerate}`")
+    add("")
+    add("## The table")
+    add("")
+    add(
+        "| row | model | criterion | paper | paper % | ours (mean ± std over seeds) | ours % | seeds | iterations "
+        "| wall (s) | status |"
+    )
+    add("|---|---|---|---|---|---|---|---|---|---|---|")
+    for s in summary:
+        add(
+            f"| `{s['row']}` | {model_text(s)} | {s['criterion']} | {s['paper_text']} | {s['paper_percent']:.0f} % | "
+            f"{_pm(s['mean'], s['std'])} | {_pm(s['percent'], s['percent_std'], 1)} % | {s['seeds']} | "
+            f"{s['iterations_mean']:.0f} | {s['seconds_mean']:.1f} | {s['status']} |"
+        )
+    add("")
+    add(
+        "*paper*: the paper's reward (case 1, case 2) or 69 × its percentage (case 3); *iterations* and "
+        "*wall* are means over seeds, wall time per job including the evaluation. *status* compares the "
+        "mean over seeds with the paper's figure (pp: percentage points of 69)."
+    )
+    notes = [s for s in summary if s["note"]]
+    if notes:
+        add("")
+        for s in notes:
+            add(f"- `{s['row']}`: {s['note']}.")
+    add("")
+    add("## Per seed")
+    add("")
+    add(
+        "| row | seed | evaluated mean ± s.e. | best iteration's mean | iterations | best iteration | stop | wall (s) |"
+    )
+    add("|---|---|---|---|---|---|---|---|")
+    for s in summary:
+        for r in s["runs"]:
+            add(
+                f"| `{s['row']}` | {r['seed']} | {r['mean']:.2f} ± {r['std_error']:.2f} | {r['best_mean']:.2f} | "
+                f"{r['iterations']} | {r['best_iteration']} | {r['stop_reason']} | {r['seconds']:.1f} |"
+            )
+    if figures:
+        add("")
+        add("## Figures")
+        captions = {
+            "summary": "Ours (mean ± std over seeds, dots: each seed) against the paper, in % of 69.",
+            "learning_curves": "Learning curves of the case-3 rows (seed 0): mean reward, elite threshold and "
+            "best reward of each iteration; dotted: the paper's figure; vertical line: the best iteration.",
+            "trajectory": "A stretch of one episode of the best case-3 policy, in the spirit of the paper's "
+            "*Near-optimal control sequence*: × target, • observer 1 (B), ○ observer 2 (C); relative "
+            "times next to the points.",
+            "memory": f"How the learned memory is used: frequency of (m₁, y) and of (m₁, m₂) over {rollouts} "
+            "episodes of the best two-level case-3 policy ([16,16] when run); blank: never visited.",
+        }
+        for name, path in figures.items():
+            add("")
+            add(f"![{name}]({_rel(path, report_dir)})")
+            add("")
+            add(captions.get(name, name))
+    add("")
+    add("## Findings")
+    add("")
+    if root is not None:
+        link = _link(root / "docs" / "engine-results.md", report_dir)
+        add(
+            f"The engine's first measurements and findings (case 1's memoryless limit of 83, case 2's stall with "
+            f"basic CE, the determinism check) are in [docs/engine-results.md]({link})."
+        )
+    else:
+        add("The engine's first measurements and findings are in docs/engine-results.md.")
+    add("")
+    add("## Optimiser findings")
+    add("")
+    if findings_path is not None and findings_path.is_file():
+        add(findings_path.read_text().rstrip())
+    else:
+        where = "docs/findings.md" if findings_path is None else findings_path.as_posix()
+        add(f"*None yet: this section reproduces `{where}` verbatim once that hand-written file exists.*")
+    add("")
+    return "\n".join(lines)
+
+
+# -- figures ---------------------------------------------------------------------------------------
+
+
+def make_figures(summary: list[dict[str, Any]], out_dir: Path, img_dir: Path, rollouts: int = 1000) -> dict[str, Path]:
+    """Writes the PNG figures; returns {name: path}. Needs matplotlib (warns and skips without it)."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        print("matplotlib is not installed: no figures (pip install 'cehmm[plot]')", file=sys.stderr)
+        return {}
+    import cehmm
+
+    from . import plots
+
+    img_dir.mkdir(parents=True, exist_ok=True)
+    written: dict[str, Path] = {}
+
+    def save(name: str, fig: Any) -> None:
+        path = img_dir / f"{name}.png"
+        tmp = img_dir / f".{name}.tmp.png"
+        fig.savefig(tmp, dpi=110)
+        os.replace(tmp, path)
+        written[name] = path
+
+    if not summary:
+        return written
+    save("summary", plots.summary_bars(summary, paper_best=PAPER_BEST))
+
+    case3 = [s for s in summary if s["case"] == 3]
+    curves = []
+    for s in case3:
+        run = min(s["runs"], key=lambda r: r["seed"])
+        hist_path = out_dir / run["history"]
+        if hist_path.exists():
+            with np.load(hist_path) as h:
+                history = {k: h[k] for k in h.files}
+            curves.append(
+                {
+                    "title": f"{model_text(s)}, {s['criterion']} (seed {run['seed']})",
+                    "history": history,
+                    "paper": s["paper_reward"],
+                    "best_iteration": run["best_iteration"],
+                }
+            )
+    if curves:
+        save("learning_curves", plots.learning_curves(curves))
+
+    def best_policy(candidates: list[dict[str, Any]]) -> tuple[Any, dict[str, Any]] | None:
+        runs = [(r, s) for s in candidates for r in s["runs"] if (out_dir / r["policy"]).exists()]
+        if not runs:
+            return None
+        r, s = max(runs, key=lambda rs: rs[0]["mean"])
+        return cehmm.Policy.load(out_dir / r["policy"]), {**r, "title": f"{model_text(s)}, {s['criterion']}"}
+
+    world = cehmm.TargetTracking(case=3)
+    best = best_policy(case3)
+    if best is not None:
+        policy, run = best
+        title = f"{run['title']}, seed {run['seed']} (evaluated mean {run['mean']:.1f})"
+        save("trajectory", plots.trajectory(policy, world, title=title))
+    two_level = [s for s in case3 if list(s["levels"]) == [16, 16]] or [s for s in case3 if len(s["levels"]) >= 2]
+    best = best_policy(two_level)
+    if best is not None:
+        policy, run = best
+        title = f"{run['title']}, seed {run['seed']} (evaluated mean {run['mean']:.1f})"
+        save("memory", plots.memory_heatmap(policy, world, episodes=rollouts, title=title))
+    return written
+
+
+# -- the command -----------------------------------------------------------------------------------
+
+
+def regenerate_command(args: argparse.Namespace) -> str:
+    """The ``--report-only`` command that rebuilds the outputs of ``args`` (before --quick's defaults)."""
+    parts = ["cehmm reproduce --report-only"]
+    if args.quick:
+        parts.append("--quick")
+    if args.out_dir != Path("results"):
+        parts.append(f"--out-dir {shlex.quote(str(args.out_dir))}")
+    for flag, value in (
+        ("--report", args.report),
+        ("--img-dir", args.img_dir),
+        ("--findings", args.findings),
+        ("--rollouts", args.rollouts),
+    ):
+        if value is not None:
+            parts.append(f"{flag} {shlex.quote(str(value))}")
+    if args.rows:
+        parts.append("--rows " + " ".join(shlex.quote(r) for r in args.rows))
+    if args.settings != "paper":
+        parts.append(f"--settings {shlex.quote(args.settings)}")
+    parts.extend(f"--set {shlex.quote(o)}" for o in args.overrides)
+    if args.no_figures:
+        parts.append("--no-figures")
+    return " ".join(parts)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="cehmm reproduce",
+        description="Reproduces the paper's results table (SPEC §5, Q-learning rows excepted): every row over "
+        "several seeds, resumable, then results.json/csv, a markdown report and figures.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument(
+        "--rows",
+        nargs="+",
+        metavar="ID",
+        help="rows to run (ids or glob patterns, e.g. 'c3-*-strong'); default: all. --list-rows shows them",
+    )
+    p.add_argument("--list-rows", action="store_true", help="list the rows and exit")
+    p.add_argument("--seeds", type=int, default=5, help="seeds 0..SEEDS-1 per row")
+    p.add_argument(
+        "--settings",
+        default="paper",
+        help=f"settings preset ({', '.join(SETTINGS)}) or a JSON file "
+        '{"*": {...}, "row-id": {...}} of optimize() keywords',
+    )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an optimize() keyword for every row (VALUE as JSON), e.g. smoothing=0.7; part of the jobs' identity",
+    )
+    p.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=None,
+        help="fresh episodes to evaluate each policy (default 10000; 200 with --quick)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="worker processes; each runs the engine with one thread (1: one job at a time with every core)",
+    )
+    p.add_argument(
+        "--threads", type=int, default=None, help="engine threads per job (default: every core with --jobs 1, else 1)"
+    )
+    p.add_argument(
+        "--out-dir", type=Path, default=Path("results"), help="JSONL, results.json/csv, policies/, histories/"
+    )
+    p.add_argument(
+        "--report",
+        type=Path,
+        default=None,
+        help="markdown report (default docs/results.md; OUT_DIR/results.md with --quick)",
+    )
+    p.add_argument("--img-dir", type=Path, default=None, help="figures (default docs/img; OUT_DIR/img with --quick)")
+    p.add_argument(
+        "--findings",
+        type=Path,
+        default=None,
+        help="hand-written optimiser findings included verbatim (default: findings.md beside the report)",
+    )
+    p.add_argument(
+        "--rollouts", type=int, default=None, help="episodes of the memory heat map (default 1000; 200 with --quick)"
+    )
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no engine progress line (it is shown only with --jobs 1 on a terminal)",
+    )
+    p.add_argument(
+        "--report-only",
+        action="store_true",
+        help="run nothing: rebuild results.json/csv, the report and the figures from the JSONL",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"smoke run: rows {', '.join(QUICK_ROWS)}, {QUICK_SEEDS} "
+        "seeds, settings 'quick' (100 samples, 5 iterations, small levels)",
+    )
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    command = " ".join(["cehmm reproduce", *(sys.argv[1:] if argv is None else list(argv))])
+    if args.list_rows:
+        for row in ROWS:
+            print(
+                f"{row['id']:<22} {model_text(row)}, {row['criterion']}; paper {row['paper_text']} "
+                f"({row['paper_percent']:.0f} % of 69)"
+            )
+        return 0
+    regen = regenerate_command(args)
+    if args.quick:
+        if not args.rows:
+            args.rows = list(QUICK_ROWS)
+        if "--seeds" not in (sys.argv if argv is None else argv):
+            args.seeds = QUICK_SEEDS
+        if args.settings == "paper":
+            args.settings = "quick"
+    out_dir: Path = args.out_dir
+    report_path: Path = args.report or (out_dir / "results.md" if args.quick else Path("docs/results.md"))
+    img_dir: Path = args.img_dir or (out_dir / "img" if args.quick else Path("docs/img"))
+    findings: Path = args.findings or report_path.parent / "findings.md"
+    rollouts = args.rollouts or (200 if args.quick else 1000)
+
+    rows = select_rows(args.rows)
+    name, preset = load_preset(args.settings)
+    extra = parse_set(args.overrides)
+    label = settings_label(name, extra)
+    if args.eval_episodes is not None:
+        extra["eval_episodes"] = args.eval_episodes
+    jsonl = out_dir / JSONL_NAME
+    n_jobs = max(1, args.jobs)
+    total_start = time.perf_counter()
+
+    interrupted = False
+    failed = 0
+    if not args.report_only:
+        done = {(r.get("row"), r.get("seed"), r.get("settings")) for r in read_records(jsonl)}
+        machine = machine_info()
+        run_id = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+        threads = args.threads if args.threads is not None else (None if n_jobs == 1 else 1)
+        show_engine = n_jobs == 1 and not args.no_progress and sys.stderr.isatty()
+        jobs = []
+        for seed in range(args.seeds):  # seed-major: every row gets a first result early
+            for row in rows:
+                if (row["id"], seed, label) in done:
+                    continue
+                jobs.append(
+                    {
+                        "row": row["id"],
+                        "seed": seed,
+                        "settings": label,
+                        "case": row["case"],
+                        "kwargs": job_kwargs(row, preset, extra),
+                        "threads": threads,
+                        "progress": show_engine,
+                        "out_dir": str(out_dir),
+                        "run": run_id,
+                        "command": command,
+                        "machine": machine,
+                    }
+                )
+        skipped = len(rows) * args.seeds - len(jobs)
+        print(
+            f"{len(jobs)} job(s) to run ({len(rows)} rows × {args.seeds} seeds, settings {label!r}, "
+            f"{skipped} already in {jsonl}); {n_jobs} at a time",
+            flush=True,
+        )
+        if jobs:
+            outcome = run_jobs(jobs, jsonl, n_jobs)
+            interrupted = outcome.interrupted
+            failed = len(outcome.failed)
+            if interrupted:
+                print(
+                    f"interrupted: {outcome.finished} job(s) finished and kept in {jsonl}; run the same command "
+                    "to resume",
+                    file=sys.stderr,
+                    flush=True,
+                )
+            if failed:
+                print(f"{failed} job(s) failed:\n  " + "\n  ".join(outcome.failed), file=sys.stderr, flush=True)
+
+    records = read_records(jsonl)
+    summary = aggregate(records, rows, label)
+    used = [r for s in summary for r in s["runs"]]
+    meta = {
+        "generated": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "settings": label,
+        "machine": machine_info(),
+        "command": command,
+        **run_stats(used),
+    }
+    write_tables(summary, meta, out_dir)
+    figures = {} if args.no_figures else make_figures(summary, out_dir, img_dir, rollouts=rollouts)
+    text = render_report(summary, used, label, report_path, figures, findings, regen, rollouts)
+    _write_text(report_path, text)
+    print(
+        f"wrote {out_dir / 'results.json'}, {out_dir / 'results.csv'}, {report_path}"
+        + (f" and {len(figures)} figure(s) in {img_dir}" if figures else "")
+        + f" ({_fmt_duration(time.perf_counter() - total_start)})",
+        flush=True,
+    )
+    return 130 if interrupted else (1 if failed else 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
