@@ -158,3 +158,25 @@ def test_ctrl_c_returns_the_result_so_far() -> None:
     done = subprocess.run([sys.executable, "-c", CTRL_C], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert "interrupted after" in done.stdout
+
+
+def test_clock_init_learns_a_time_indexed_plan():
+    world = cehmm.TargetTracking(case=2, horizon=20)
+    result = cehmm.optimize(world, levels=[20, 20], init="clock", samples=300, max_iterations=3, progress=False)
+    episode = result.last_policy.rollout(world, seed=1)
+    assert np.array_equal(episode.memory[:, 0], np.arange(20))
+    assert np.array_equal(episode.memory[:, 1], np.arange(20))
+    with pytest.raises(cehmm.InvalidArgumentError, match="two equal levels"):
+        cehmm.optimize(world, levels=[20, 10], init="clock", progress=False)
+
+
+def test_forward_backward_memory_update():
+    world = cehmm.TargetTracking(case=3)
+    kwargs = dict(levels=[4, 3], init="random", samples=200, max_iterations=2, progress=False)
+    a = cehmm.optimize(world, memory_update="forward-backward", threads=1, **kwargs)
+    b = cehmm.optimize(world, memory_update="forward-backward", threads=2, **kwargs)
+    assert all(np.array_equal(x, y) for x, y in zip(a.last_policy.tables["h1"], b.last_policy.tables["h1"]))
+    with pytest.raises(cehmm.InvalidArgumentError, match="memory_update"):
+        cehmm.optimize(world, memory_update="viterbi", progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="at most 2 levels"):
+        cehmm.optimize(world, levels=[4, 2, 2], memory_update="forward-backward", max_iterations=1, progress=False)

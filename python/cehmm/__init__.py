@@ -26,6 +26,7 @@ from ._core import ENGINE_VERSION, CehmmError, InvalidArgumentError, PolicyForma
 from .evaluation import Evaluation, Rollout
 from .optimizer import OptimizeResult, optimize
 from .policy import Policy
+from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
 from .tracking import TargetTracking
 
 try:
@@ -41,8 +42,12 @@ __all__ = [
     "Policy",
     "PolicyFormatError",
     "PolicyMismatchError",
+    "QLearner",
     "Rollout",
     "TargetTracking",
+    "WindowEvaluation",
     "__version__",
+    "evaluate_windows",
     "optimize",
+    "qlearning",
 ]

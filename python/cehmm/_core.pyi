@@ -98,6 +98,8 @@ class Policy:
     @staticmethod
     def random(world: TargetTracking, levels: list[int], seed: int) -> Policy: ...
     @staticmethod
+    def clock(world: TargetTracking, levels: list[int]) -> Policy: ...
+    @staticmethod
     def from_tables(
         h0: npt.NDArray[np.float64],
         h1: npt.NDArray[np.float64],
@@ -144,4 +146,85 @@ def optimize(
     threads: int | None,
     eval_episodes: int,
     progress: bool,
+    memory_update: str = "sampled",
 ) -> OptimizeDict: ...
+
+class WindowsDict(TypedDict):
+    from_start: EvaluationDict  # (a) one window from each fresh start
+    continuing: EvaluationDict  # (b) consecutive windows of continuing runs after a burn-in
+
+class TrainDict(TypedDict):
+    updates: int
+    seconds: float
+    interrupted: bool
+    checkpoints: int
+
+def evaluate_policy_windows(
+    policy: Policy,
+    world: TargetTracking,
+    *,
+    window: int,
+    episodes: int,
+    chains: int,
+    burn_in: int,
+    windows_per_chain: int,
+    seed: int,
+    threads: int | None = None,
+) -> WindowsDict: ...
+
+class QLearner:
+    """``ceworld::QLearner<TargetTracking>``: a Q-learning run (table, counters, random stream, world state).
+
+    ``__init__`` and ``load`` raise ``MemoryError`` when the table would not fit in memory.
+    """
+
+    def __init__(self, world: TargetTracking, *, gamma: float, alpha: float, seed: int, ties: str) -> None: ...
+    @staticmethod
+    def load(path: str | os.PathLike[str]) -> QLearner: ...
+    def save(self, path: str | os.PathLike[str]) -> None: ...
+    def train(
+        self,
+        until: int,
+        *,
+        progress: bool,
+        checkpoint: str | os.PathLike[str] | None = None,
+        checkpoint_every: float | None = None,
+    ) -> TrainDict: ...
+    def evaluate_windows(
+        self,
+        world: TargetTracking,
+        *,
+        window: int,
+        episodes: int,
+        chains: int,
+        burn_in: int,
+        windows_per_chain: int,
+        seed: int,
+        threads: int | None = None,
+        ties: str | None = None,
+    ) -> WindowsDict: ...
+    @property
+    def updates(self) -> int: ...
+    @property
+    def n_states(self) -> int: ...
+    @property
+    def n_actions(self) -> int: ...
+    @property
+    def table_bytes(self) -> int: ...
+    @property
+    def gamma(self) -> float: ...
+    @property
+    def alpha(self) -> float: ...
+    @property
+    def seed(self) -> int: ...
+    @property
+    def ties(self) -> str: ...  # "random" or "lowest"
+    @property
+    def reward_total(self) -> float: ...
+    @property
+    def seconds(self) -> float: ...
+    def header(self) -> dict[str, Any]: ...
+    def world(self) -> dict[str, Any]: ...
+    def table(self) -> npt.NDArray[np.float32]: ...  # (n_states, n_actions)
+    def row(self, state: int) -> npt.NDArray[np.float32]: ...  # (n_actions,)
+    def state_index(self, state: list[int], y: int) -> int: ...

@@ -74,3 +74,10 @@ def levels(value: Any) -> list[int]:
                 f"invalid levels: {sizes!r}: level {position} is {size!r} (expected a positive int)"
             )
     return [int(size) for size in sizes]
+
+
+def choice(name: str, value: Any, options: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``options``."""
+    if not isinstance(value, str) or value not in options:
+        raise invalid(name, value, " or ".join(repr(o) for o in options))
+    return value

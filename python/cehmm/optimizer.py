@@ -80,6 +80,7 @@ def optimize(
     progress: bool = True,
     eval_episodes: int = 10000,
     init: Init = None,
+    memory_update: str = "sampled",
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (SPEC §3).
 
@@ -106,7 +107,12 @@ def optimize(
             ten updates a second.
         eval_episodes: fresh episodes used to evaluate the best policy.
         init: ``None`` or ``"uniform"`` (uniform tables), ``"random"`` (random tables drawn from
-            ``seed``) or a :class:`Policy` to start from.
+            ``seed``), ``"clock"`` (a memory that counts the steps, so that ``h0`` learns a
+            time-indexed plan; two equal levels such as ``[100, 100]``) or a :class:`Policy`.
+        memory_update: ``"sampled"`` (count the memory states that were drawn: the paper) or
+            ``"forward-backward"`` (count their posterior expectation given each elite episode's
+            observations and decisions; at most 2 levels, and needs ``init="random"`` to break
+            the symmetry of uniform tables).
 
     Returns:
         an :class:`OptimizeResult`.
@@ -138,6 +144,7 @@ def optimize(
         threads=check.optional_count("threads", threads),
         eval_episodes=check.count("eval_episodes", eval_episodes),
         progress=check.flag("progress", progress),
+        memory_update=check.choice("memory_update", memory_update, ("sampled", "forward-backward")),
     )
     return OptimizeResult(
         policy=Policy(raw["policy"]),
@@ -162,4 +169,6 @@ def _initial(world: TargetTracking, levels: Sequence[int] | None, init: Init, se
         return Policy.uniform(world, sizes)
     if isinstance(init, str) and init == "random":
         return Policy.random(world, sizes, seed)
-    raise check.invalid("init", init, "None, 'uniform', 'random' or a cehmm.Policy")
+    if isinstance(init, str) and init == "clock":
+        return Policy.clock(world, sizes)
+    raise check.invalid("init", init, "None, 'uniform', 'random', 'clock' or a cehmm.Policy")

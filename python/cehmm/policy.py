@@ -70,6 +70,13 @@ class Policy:
         return cls(_core.Policy.random(core_world(world), check.levels(levels), check.seed(seed)))
 
     @classmethod
+    def clock(cls, world: TargetTracking, levels: Sequence[int]) -> Policy:
+        """A two-level policy whose memory is a clock, ``m_1[t] = m_2[t] = (t - 1) mod M``, with
+        uniform decisions: under CE its ``h0`` becomes a time-indexed plan (levels ``[M, M]``;
+        ``M >= T`` gives every step its own row). The structure that solves case 2."""
+        return cls(_core.Policy.clock(core_world(world), check.levels(levels)))
+
+    @classmethod
     def from_tables(
         cls,
         tables: Mapping[str, Any],

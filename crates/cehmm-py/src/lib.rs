@@ -11,9 +11,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use numpy::ndarray::{Array2, ArrayD, IxDyn};
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::create_exception;
-use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 use serde_json::{Value, json};
@@ -21,6 +21,9 @@ use serde_json::{Value, json};
 use ceworld::episode::run_with;
 use ceworld::evaluate::check_fits;
 use ceworld::optimize::thread_pool;
+use ceworld::qlearn::{
+    Greedy, KnownState, QConfig, QLearner, QProgress, Ties, WindowConfig, WindowReport, evaluate_windows,
+};
 use ceworld::rng::{Purpose, stream};
 use ceworld::{
     CeConfig, Error, Evaluation, Flow, Hhmm, IterationRecord, Layout, PolicyFile, TrackingParams, World, random_policy,
@@ -56,6 +59,7 @@ fn raise(error: Error) -> PyErr {
         Error::InvalidArgument { .. } => InvalidArgumentError::new_err(message),
         Error::PolicyFormat { .. } => PolicyFormatError::new_err(message),
         Error::Mismatch(_) => PolicyMismatchError::new_err(message),
+        Error::Memory { .. } => PyMemoryError::new_err(message),
         Error::Io { path, source } => match source.raw_os_error() {
             Some(errno) => {
                 let text = source.to_string();
@@ -266,6 +270,13 @@ impl PyPolicy {
     #[staticmethod]
     fn uniform(world: &PyTargetTracking, levels: Vec<usize>) -> PyResult<Self> {
         let policy = uniform_policy(&world.world, &levels).map_err(raise)?;
+        Ok(Self::new(policy, world.world.to_json(), json!({})))
+    }
+
+    /// A two-level clock: the memory counts the steps, `h0` is uniform (see `Hhmm::clock`).
+    #[staticmethod]
+    fn clock(world: &PyTargetTracking, levels: Vec<usize>) -> PyResult<Self> {
+        let policy = ceworld::clock_policy(&world.world, &levels).map_err(raise)?;
         Ok(Self::new(policy, world.world.to_json(), json!({})))
     }
 
@@ -518,7 +529,7 @@ impl Progress {
 #[pyfunction]
 #[pyo3(signature = (
     world, initial, *, samples, rho, smoothing, patience, max_iterations, time_limit, target, seed, threads,
-    eval_episodes, progress
+    eval_episodes, progress, memory_update = "sampled"
 ))]
 #[allow(clippy::too_many_arguments)]
 fn optimize<'py>(
@@ -536,7 +547,9 @@ fn optimize<'py>(
     threads: Option<usize>,
     eval_episodes: usize,
     progress: bool,
+    memory_update: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let memory_update = memory_update.parse().map_err(raise)?;
     let config = CeConfig {
         samples,
         rho,
@@ -548,6 +561,7 @@ fn optimize<'py>(
         seed,
         threads,
         eval_episodes,
+        memory_update,
     };
     let world = &world.world;
     let initial = initial.file.policy.clone();
@@ -604,10 +618,258 @@ fn optimize<'py>(
     Ok(out)
 }
 
+/// A window configuration from its keyword arguments.
+fn window_config(
+    window: usize,
+    episodes: usize,
+    chains: usize,
+    burn_in: u64,
+    windows_per_chain: usize,
+) -> WindowConfig {
+    WindowConfig { window, episodes, chains, burn_in, windows_per_chain }
+}
+
+fn window_report_dict<'py>(py: Python<'py>, report: &WindowReport) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("from_start", evaluation_dict(py, &report.from_start)?)?;
+    d.set_item("continuing", evaluation_dict(py, &report.continuing)?)?;
+    Ok(d)
+}
+
+/// An HHMM policy evaluated on 100-step windows as the paper compares policies (see
+/// `ceworld::qlearn::evaluate_windows`).
+#[pyfunction]
+#[pyo3(signature = (policy, world, *, window, episodes, chains, burn_in, windows_per_chain, seed, threads = None))]
+#[allow(clippy::too_many_arguments)]
+fn evaluate_policy_windows<'py>(
+    py: Python<'py>,
+    policy: &PyPolicy,
+    world: &PyTargetTracking,
+    window: usize,
+    episodes: usize,
+    chains: usize,
+    burn_in: u64,
+    windows_per_chain: usize,
+    seed: u64,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let config = window_config(window, episodes, chains, burn_in, windows_per_chain);
+    let (world, policy) = (&world.world, &policy.file.policy);
+    let report = py
+        .detach(|| thread_pool(threads)?.install(|| evaluate_windows(world, policy, &config, seed)))
+        .map_err(raise)?;
+    window_report_dict(py, &report)
+}
+
+/// A Q-learning run on the target-tracking world (a `ceworld::QLearner`; wrapped by
+/// `cehmm.QLearner`).
+#[pyclass(module = "cehmm._core", name = "QLearner")]
+struct PyQLearner {
+    learner: QLearner<ceworld::TargetTracking>,
+}
+
+#[pymethods]
+impl PyQLearner {
+    /// A fresh run with a zero table (refused with `MemoryError` when it would not fit).
+    #[new]
+    #[pyo3(signature = (world, *, gamma, alpha, seed, ties))]
+    fn new(py: Python<'_>, world: &PyTargetTracking, gamma: f64, alpha: f64, seed: u64, ties: &str) -> PyResult<Self> {
+        let world = world.world.clone();
+        let ties = Ties::parse(ties).map_err(raise)?;
+        let learner = py.detach(|| QLearner::new(world, QConfig { gamma, alpha, seed, ties })).map_err(raise)?;
+        Ok(PyQLearner { learner })
+    }
+
+    /// Reads a run saved by `save` (or a `ceworld qlearn` checkpoint).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let learner = py.detach(|| ceworld::qlearn::load_tracking(path)).map_err(raise)?;
+        Ok(PyQLearner { learner })
+    }
+
+    /// Writes the run (header and table), atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let learner = &self.learner;
+        py.detach(|| learner.save(path)).map_err(raise)
+    }
+
+    /// Runs until `until` updates in all; Ctrl-C stops between chunks of updates (after saving
+    /// the checkpoint, when there is one) and the outcome says `interrupted`.
+    #[pyo3(signature = (until, *, progress, checkpoint = None, checkpoint_every = None))]
+    fn train<'py>(
+        &mut self,
+        py: Python<'py>,
+        until: u64,
+        progress: bool,
+        checkpoint: Option<PathBuf>,
+        checkpoint_every: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let learner = &mut self.learner;
+        let outcome = py
+            .detach(|| {
+                let mut last_print: Option<Instant> = None;
+                let mut last: Option<QProgress> = None;
+                let outcome = learner.train(until, checkpoint.as_deref(), checkpoint_every, |p| {
+                    if progress && last_print.is_none_or(|t| t.elapsed().as_millis() >= 250) {
+                        last_print = Some(Instant::now());
+                        eprint!("\r\x1b[K{}", p.line());
+                        let _ = std::io::stderr().flush();
+                    }
+                    last = Some(p.clone());
+                    // A pending KeyboardInterrupt is consumed here: the caller gets the run so far.
+                    match Python::attach(|py| py.check_signals()) {
+                        Ok(()) => Flow::Continue,
+                        Err(_) => Flow::Stop,
+                    }
+                });
+                if let (true, Some(p)) = (progress, last) {
+                    eprintln!("\r\x1b[K{}", p.line());
+                }
+                outcome
+            })
+            .map_err(raise)?;
+        let d = PyDict::new(py);
+        d.set_item("updates", outcome.updates)?;
+        d.set_item("seconds", outcome.seconds)?;
+        d.set_item("interrupted", outcome.interrupted)?;
+        d.set_item("checkpoints", outcome.checkpoints)?;
+        Ok(d)
+    }
+
+    /// The greedy policy evaluated on windows: `{"from_start": ..., "continuing": ...}`; ties
+    /// broken as in learning unless `ties` says otherwise.
+    #[pyo3(signature = (world, *, window, episodes, chains, burn_in, windows_per_chain, seed, threads = None, ties = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_windows<'py>(
+        &self,
+        py: Python<'py>,
+        world: &PyTargetTracking,
+        window: usize,
+        episodes: usize,
+        chains: usize,
+        burn_in: u64,
+        windows_per_chain: usize,
+        seed: u64,
+        threads: Option<usize>,
+        ties: Option<&str>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let config = window_config(window, episodes, chains, burn_in, windows_per_chain);
+        let ties = match ties {
+            Some(t) => Ties::parse(t).map_err(raise)?,
+            None => self.learner.config().ties,
+        };
+        let (world, greedy) = (&world.world, Greedy { table: self.learner.table(), ties });
+        let report = py
+            .detach(|| thread_pool(threads)?.install(|| evaluate_windows(world, &greedy, &config, seed)))
+            .map_err(raise)?;
+        window_report_dict(py, &report)
+    }
+
+    /// Updates run so far.
+    #[getter]
+    fn updates(&self) -> u64 {
+        self.learner.updates()
+    }
+
+    /// Number of known states (rows of the table).
+    #[getter]
+    fn n_states(&self) -> usize {
+        self.learner.table().n_states()
+    }
+
+    /// Number of actions (columns of the table).
+    #[getter]
+    fn n_actions(&self) -> usize {
+        self.learner.table().n_actions()
+    }
+
+    /// Size of the table in bytes.
+    #[getter]
+    fn table_bytes(&self) -> u64 {
+        self.learner.table().bytes()
+    }
+
+    /// Discount `γ`.
+    #[getter]
+    fn gamma(&self) -> f64 {
+        self.learner.config().gamma
+    }
+
+    /// Learning rate `α`.
+    #[getter]
+    fn alpha(&self) -> f64 {
+        self.learner.config().alpha
+    }
+
+    /// Seed of the run's random stream.
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.learner.config().seed
+    }
+
+    /// How greedy ties are broken: `"random"` or `"lowest"`.
+    #[getter]
+    fn ties(&self) -> &'static str {
+        self.learner.config().ties.as_str()
+    }
+
+    /// Sum of the rewards of every update so far.
+    #[getter]
+    fn reward_total(&self) -> f64 {
+        self.learner.reward_total()
+    }
+
+    /// Seconds spent learning, over every session.
+    #[getter]
+    fn seconds(&self) -> f64 {
+        self.learner.seconds()
+    }
+
+    /// The header of the run's file (settings, counters, random stream, world state) as a dict.
+    fn header<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.learner.header())
+    }
+
+    /// The world's parameters (with its name), as stored in policy files.
+    fn world<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &self.learner.world().to_json())
+    }
+
+    /// A copy of the table, float32, shape `(n_states, n_actions)`.
+    fn table<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let t = self.learner.table();
+        let values = py.detach(|| t.values().to_vec());
+        Ok(Array2::from_shape_vec((t.n_states(), t.n_actions()), values).expect("the table's shape").into_pyarray(py))
+    }
+
+    /// `Q(s, ·)`, float32, shape `(n_actions,)`.
+    fn row<'py>(&self, py: Python<'py>, state: usize) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let t = self.learner.table();
+        if state >= t.n_states() {
+            return Err(raise(Error::invalid("state", format!("{state} (expected < {})", t.n_states()))));
+        }
+        Ok(PyArray1::from_slice(py, t.row(state)))
+    }
+
+    /// The known state of a world state (`b_i, b_j, b_heading, c_i, c_j, c_heading, target_i,
+    /// target_j`) seen through observation `y`: `(y·P + B)·P + C`.
+    fn state_index(&self, state: Vec<i64>, y: usize) -> PyResult<usize> {
+        let world = self.learner.world();
+        if y >= world.n_observations() {
+            return Err(raise(Error::invalid("y", format!("{y} (expected < {})", world.n_observations()))));
+        }
+        let state = world.restore(&state).map_err(|e| raise(Error::invalid("state", e.to_string())))?;
+        Ok(world.known_state(&state, y))
+    }
+}
+
 /// `cehmm._core`: the compiled engine; use the `cehmm` package instead.
 #[pymodule(gil_used = false)]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    // Import numpy's C API now: done lazily, the first array made after a Ctrl-C would find
+    // the import interrupted and panic.
+    let _ = PyArray1::<f64>::from_vec(py, Vec::new());
     m.add("CehmmError", py.get_type::<CehmmError>())?;
     m.add("InvalidArgumentError", py.get_type::<InvalidArgumentError>())?;
     m.add("PolicyFormatError", py.get_type::<PolicyFormatError>())?;
@@ -615,6 +877,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyTargetTracking>()?;
     m.add_class::<PyPolicy>()?;
     m.add_function(wrap_pyfunction!(optimize, m)?)?;
+    m.add_class::<PyQLearner>()?;
+    m.add_function(wrap_pyfunction!(evaluate_policy_windows, m)?)?;
     m.add("ENGINE_VERSION", ceworld::VERSION)?;
     Ok(())
 }

@@ -10,12 +10,8 @@ use ceworld::{CeConfig, Flow, TargetTracking, World, optimize, uniform_policy};
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let samples: usize = args.first().map_or(10_000, |s| s.parse().expect("SAMPLES is a number"));
-    let levels: Vec<usize> = args
-        .get(1)
-        .map_or("16,16", String::as_str)
-        .split(',')
-        .map(|s| s.parse().expect("LEVELS like 16,16"))
-        .collect();
+    let levels: Vec<usize> =
+        args.get(1).map_or("16,16", String::as_str).split(',').map(|s| s.parse().expect("LEVELS like 16,16")).collect();
     let iterations: usize = args.get(2).map_or(5, |s| s.parse().expect("ITERATIONS is a number"));
     let threads: Vec<usize> = if args.len() > 3 {
         args[3..].iter().map(|s| s.parse().expect("THREADS are numbers")).collect()
@@ -24,7 +20,9 @@ fn main() {
     };
     let world = TargetTracking::new(3).unwrap();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    println!("# CE iteration scaling: case 3, levels {levels:?}, N = {samples}, {iterations} iterations, {cores} cores");
+    println!(
+        "# CE iteration scaling: case 3, levels {levels:?}, N = {samples}, {iterations} iterations, {cores} cores"
+    );
     println!("| threads | s / iteration (median) | episode-steps/s | speed-up | efficiency |");
     println!("|---:|---:|---:|---:|---:|");
     let mut base: Option<(f64, ceworld::Hhmm)> = None;
@@ -47,10 +45,6 @@ fn main() {
         let (t1, reference) = base.get_or_insert((median, r.last_policy.clone()));
         assert!(*reference == r.last_policy, "{t} threads gave another policy than 1 thread");
         let speedup = *t1 / median;
-        println!(
-            "| {t} | {median:.4} | {:.1} M | {speedup:.2} | {:.0} % |",
-            rate / 1e6,
-            100.0 * speedup / t as f64
-        );
+        println!("| {t} | {median:.4} | {:.1} M | {speedup:.2} | {:.0} % |", rate / 1e6, 100.0 * speedup / t as f64);
     }
 }

@@ -25,6 +25,17 @@ pub enum Error {
         /// What is wrong, naming the key and the expected value.
         message: String,
     },
+    /// A table (the Q-learning baseline's) that would not fit in the memory the system reports
+    /// available; refused before allocating.
+    #[error("{what} needs {needed} bytes ({:.2} GiB) but only {available} bytes ({:.2} GiB) are available (MemAvailable in /proc/meminfo, or the cgroup limit)", *needed as f64 / (1u64 << 30) as f64, *available as f64 / (1u64 << 30) as f64)]
+    Memory {
+        /// What was to be allocated.
+        what: String,
+        /// Bytes needed.
+        needed: u64,
+        /// Bytes available.
+        available: u64,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -20,6 +20,8 @@ pub mod evaluate;
 pub mod io;
 pub mod optimize;
 pub mod policy;
+pub mod posterior;
+pub mod qlearn;
 pub mod rng;
 pub mod tracking;
 pub mod world;
@@ -28,10 +30,14 @@ pub use error::{Error, Result};
 pub use evaluate::{Evaluation, evaluate};
 pub use io::PolicyFile;
 pub use optimize::{
-    CeConfig, CeResult, Flow, IterationRecord, STRONG_PATIENCE, StopReason, WEAK_PATIENCE, optimize, random_policy,
-    uniform_policy,
+    CeConfig, CeResult, Flow, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE, clock_policy,
+    optimize, random_policy, uniform_policy,
 };
 pub use policy::{Hhmm, Layout};
+pub use qlearn::{
+    ContinuingWorld, Greedy, KnownState, QConfig, QLearner, QTable, Ties, WindowConfig, WindowPolicy, WindowReport,
+    evaluate_windows,
+};
 pub use tracking::{TargetTracking, TrackingParams};
 pub use world::World;
 

@@ -36,6 +36,44 @@ pub struct CeConfig {
     pub threads: Option<usize>,
     /// Fresh episodes used to evaluate the returned policy.
     pub eval_episodes: usize,
+    /// How the elite's memory is counted: as sampled (the paper) or re-inferred.
+    pub memory_update: MemoryUpdate,
+}
+
+/// How the CE update counts the memory of the elite episodes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MemoryUpdate {
+    /// Count the memory states that were sampled (SPEC §3, the paper).
+    #[default]
+    Sampled,
+    /// Count their posterior expectation given the episode's observations and decisions
+    /// (forward–backward, one EM step on the elite); levels `Λ <= 2` only.
+    ForwardBackward,
+}
+
+impl MemoryUpdate {
+    /// `"sampled"` or `"forward-backward"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MemoryUpdate::Sampled => "sampled",
+            MemoryUpdate::ForwardBackward => "forward-backward",
+        }
+    }
+}
+
+impl std::str::FromStr for MemoryUpdate {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "sampled" => Ok(MemoryUpdate::Sampled),
+            "forward-backward" => Ok(MemoryUpdate::ForwardBackward),
+            other => Err(Error::invalid(
+                "memory_update",
+                format!("{other:?} (expected \"sampled\" or \"forward-backward\")"),
+            )),
+        }
+    }
 }
 
 impl Default for CeConfig {
@@ -51,6 +89,7 @@ impl Default for CeConfig {
             seed: 0,
             threads: None,
             eval_episodes: 10_000,
+            memory_update: MemoryUpdate::Sampled,
         }
     }
 }
@@ -59,6 +98,15 @@ impl Default for CeConfig {
 pub const MAX_EPISODES: usize = 100_000_000;
 /// Largest memory for the recorded episodes of one iteration.
 pub const MAX_RECORD_BYTES: usize = 8 << 30;
+
+/// Elite episodes per block of forward–backward counts (fixed, for thread-count independence).
+const FB_BLOCK: usize = 32;
+
+/// The elite's counts: integers when the memory is counted as sampled, reals when re-inferred.
+enum Counts {
+    Integer(Vec<u32>),
+    Real(Vec<f64>),
+}
 
 /// The paper's weak convergence criterion: 100 unsuccessful iterations in a row.
 pub const WEAK_PATIENCE: usize = 100;
@@ -216,6 +264,9 @@ pub fn optimize<W: World>(
 ) -> Result<CeResult> {
     config.validate()?;
     check_fits(world, &initial)?;
+    if config.memory_update == MemoryUpdate::ForwardBackward {
+        crate::posterior::check_supported(initial.layout())?;
+    }
     let pool = thread_pool(config.threads)?;
     let layout = initial.layout().clone();
     let horizon = world.horizon();
@@ -269,22 +320,46 @@ pub fn optimize<W: World>(
         }
         let elite = &order[..elite_count];
         let threshold = elite.iter().copied().max_by(better).expect("the elite is never empty");
-        let counts = pool.install(|| {
-            elite
-                .par_chunks(chunk)
-                .map(|episodes| {
-                    let mut counts = vec![0u32; layout.len];
-                    for &k in episodes {
-                        count_episode(&layout, &records[k * stride..(k + 1) * stride], &mut counts);
-                    }
-                    counts
-                })
-                .reduce_with(|mut a, b| {
-                    a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                    a
-                })
-                .expect("the elite is never empty")
-        });
+        let record_of = |k: usize| &records[k * stride..(k + 1) * stride];
+        let counts = match config.memory_update {
+            MemoryUpdate::Sampled => Counts::Integer(pool.install(|| {
+                elite
+                    .par_chunks(chunk)
+                    .map(|episodes| {
+                        let mut counts = vec![0u32; layout.len];
+                        for &k in episodes {
+                            count_episode(&layout, record_of(k), &mut counts);
+                        }
+                        counts
+                    })
+                    .reduce_with(|mut a, b| {
+                        a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                        a
+                    })
+                    .expect("the elite is never empty")
+            })),
+            MemoryUpdate::ForwardBackward => {
+                // Floating-point sums depend on their order: blocks of a fixed size, summed in
+                // block order, keep the result independent of the thread count.
+                let blocks: Vec<Vec<f64>> = pool.install(|| {
+                    elite
+                        .par_chunks(FB_BLOCK)
+                        .map_init(crate::posterior::Scratch::default, |scratch, episodes| {
+                            let mut counts = vec![0.0f64; layout.len];
+                            for &k in episodes {
+                                crate::posterior::add_expected_counts(&policy, record_of(k), &mut counts, scratch);
+                            }
+                            counts
+                        })
+                        .collect()
+                });
+                let mut total = vec![0.0f64; layout.len];
+                for block in &blocks {
+                    total.iter_mut().zip(block).for_each(|(x, y)| *x += y);
+                }
+                Counts::Real(total)
+            }
+        };
 
         let mean = rewards.iter().sum::<f64>() / n as f64;
         let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
@@ -294,7 +369,10 @@ pub fn optimize<W: World>(
         } else {
             unsuccessful += 1;
         }
-        pool.install(|| policy.refit(&counts, config.smoothing));
+        pool.install(|| match &counts {
+            Counts::Integer(c) => policy.refit(c, config.smoothing),
+            Counts::Real(c) => policy.refit(c, config.smoothing),
+        });
         let record = IterationRecord {
             iteration,
             mean,
@@ -337,6 +415,11 @@ pub fn optimize<W: World>(
 /// A uniform policy for `levels` sized for `world`.
 pub fn uniform_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
     Hhmm::uniform(world.n_observations(), world.n_decisions(), levels)
+}
+
+/// A clock policy (see [`Hhmm::clock`]) for `levels` sized for `world`.
+pub fn clock_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
+    Hhmm::clock(world.n_observations(), world.n_decisions(), levels)
 }
 
 /// A random policy for `levels` sized for `world`, drawn from `seed`.

@@ -188,6 +188,35 @@ impl Hhmm {
         Ok(Self::from_parts(layout, probs))
     }
 
+    /// A two-level policy whose memory is a clock: `m_1[t] = m_2[t] = (t − 1) mod |M|`, whatever
+    /// the observation, and whose decisions are uniform. Counting keeps one-hot rows one-hot,
+    /// so under CE the clock persists and `h0` becomes a time-indexed plan (`h0[t]` = the
+    /// decision law at step `t`): a structure for worlds where the observation says little
+    /// (case 2). Needs `levels = [M, M]`; `M >= T` gives every step its own row.
+    pub fn clock(n_obs: usize, n_actions: usize, levels: &[usize]) -> Result<Hhmm> {
+        if levels.len() != 2 || levels[0] != levels[1] {
+            return Err(Error::invalid(
+                "levels",
+                format!("{levels:?} (a clock needs two equal levels, e.g. [100, 100])"),
+            ));
+        }
+        let layout = Layout::new(n_obs, n_actions, levels)?;
+        let m = levels[0];
+        let mut probs = vec![0.0; layout.len];
+        let t = &layout.tables;
+        probs[t[0].offset..t[0].offset + t[0].rows * t[0].cols].fill(1.0 / n_actions as f64);
+        for y in 0..n_obs {
+            for u in 0..m {
+                probs[t[1].offset + (y * m + u) * m + u] = 1.0;
+            }
+        }
+        probs[t[2].offset] = 1.0;
+        for p in 0..m {
+            probs[t[3].offset + p * m + (p + 1) % m] = 1.0;
+        }
+        Ok(Self::from_parts(layout, probs))
+    }
+
     /// A policy from its flat table entries, checked: every entry finite and non-negative,
     /// every row summing to 1 within `1e-6`.
     pub fn from_flat(layout: Layout, probs: Vec<f64>) -> Result<Hhmm> {
@@ -231,7 +260,7 @@ impl Hhmm {
     /// rows without counts keep their values. `counts` is laid out as the tables. Rows are
     /// refitted in parallel (on the current rayon pool); each row's result is independent of
     /// the split, so the update is bit-identical whatever the number of threads.
-    pub fn refit(&mut self, counts: &[u32], smoothing: f64) {
+    pub fn refit<C: Copy + Into<f64> + Sync>(&mut self, counts: &[C], smoothing: f64) {
         assert_eq!(counts.len(), self.probs.len(), "counts laid out as the tables");
         for t in &self.layout.tables {
             let range = t.offset..t.offset + t.rows * t.cols;
@@ -240,13 +269,14 @@ impl Hhmm {
                 .zip(self.alias[range.clone()].par_chunks_mut(t.cols))
                 .zip(counts[range].par_chunks(t.cols));
             rows.for_each_init(AliasScratch::default, |scratch, ((row, alias), c)| {
-                let total: u64 = c.iter().map(|&x| x as u64).sum();
-                if total == 0 {
+                // Integer counts sum exactly in f64 (below 2^53).
+                let total: f64 = c.iter().map(|&x| x.into()).sum();
+                if total <= 0.0 {
                     return;
                 }
-                let inv = 1.0 / total as f64;
+                let inv = 1.0 / total;
                 for (p, &x) in row.iter_mut().zip(c) {
-                    *p = smoothing * (x as f64 * inv) + (1.0 - smoothing) * *p;
+                    *p = smoothing * (x.into() * inv) + (1.0 - smoothing) * *p;
                 }
                 build_alias(row, alias, scratch);
             });

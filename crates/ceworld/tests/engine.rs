@@ -283,3 +283,35 @@ fn bad_policy_files_are_refused_clearly() {
     doc["policy"]["extra"] = serde_json::json!(1);
     assert_eq!(PolicyFile::from_json(&doc).unwrap(), file);
 }
+
+#[test]
+fn a_clock_policy_counts_the_steps_and_survives_ce_updates() {
+    let world = Sum { horizon: 7, n_obs: 2, n_decisions: 3 };
+    let clock = ceworld::clock_policy(&world, &[5, 5]).unwrap();
+    let check = |policy: &Hhmm| {
+        run_with(&world, policy, &mut stream(3, Purpose::Evaluate, 0, 0), |t, _, _, m, _| {
+            assert_eq!((m[0] as usize, m[1] as usize), (t % 5, t % 5), "step {t}");
+        });
+    };
+    check(&clock);
+    // V = sum of decisions: CE learns "always 2" in h0 while the clock stays a clock.
+    let r = optimize(&world, clock, &small(500, 5), |_| Flow::Continue).unwrap();
+    check(&r.last_policy);
+    assert!(r.last_policy.table(0).chunks(3).all(|row| row[2] > 0.9), "{:?}", r.last_policy.table(0));
+    assert!(ceworld::clock_policy(&world, &[5, 4]).is_err());
+    assert!(ceworld::clock_policy(&world, &[5]).is_err());
+}
+
+#[test]
+fn forward_backward_update_is_thread_count_independent_and_refused_above_two_levels() {
+    let world = TargetTracking::new(3).unwrap();
+    let run = |threads| {
+        let config =
+            CeConfig { threads: Some(threads), memory_update: ceworld::MemoryUpdate::ForwardBackward, ..small(200, 3) };
+        optimize(&world, random_policy(&world, &[4, 3], 1).unwrap(), &config, |_| Flow::Continue).unwrap()
+    };
+    assert!(run(1).last_policy == run(2).last_policy);
+    let config = CeConfig { memory_update: ceworld::MemoryUpdate::ForwardBackward, ..small(200, 3) };
+    let e = optimize(&world, uniform_policy(&world, &[4, 2, 2]).unwrap(), &config, |_| Flow::Continue).unwrap_err();
+    assert!(e.to_string().contains("at most 2 levels"), "{e}");
+}

@@ -11,9 +11,10 @@ use clap::{Parser, Subcommand};
 use serde_json::Value;
 
 use ceworld::optimize::thread_pool;
+use ceworld::qlearn::{Greedy, PAPER_REFERENCE, QProgress, Ties, load_tracking, percent};
 use ceworld::{
-    CeConfig, Error, Flow, PolicyFile, Result, TargetTracking, TrackingParams, evaluate, optimize, random_policy,
-    uniform_policy,
+    CeConfig, Error, Flow, PolicyFile, QConfig, QLearner, Result, TargetTracking, TrackingParams, WindowConfig,
+    WindowReport, World, evaluate, evaluate_windows, optimize, random_policy, uniform_policy,
 };
 
 /// Cross-entropic learning of hierarchical-HMM policies (Dambreville's method) for the
@@ -55,6 +56,344 @@ enum Command {
         #[arg(long = "param", value_name = "KEY=VALUE")]
         params: Vec<String>,
     },
+    /// Learn a Q table by Q-learning, the paper's baseline (SPEC §5): the state is the last
+    /// observation and both mobiles' cells and headings, the task continuing (never reset).
+    ///
+    /// The table (f32; 2.6 GB for the 20×20 grid) is refused when it would not fit in memory.
+    /// The run is checkpointed (table, update count, random stream, world state) every
+    /// --checkpoint-every seconds, on Ctrl-C and at the end; --resume continues it exactly as
+    /// if it had never stopped. Then the greedy policy is evaluated on 100-step windows.
+    Qlearn(QlearnArgs),
+    /// Evaluate on 100-step windows, as the paper compares them, the greedy policy of a Q table
+    /// and/or HHMM policies: (a) windows from the initial state, (b) consecutive windows of long
+    /// continuing runs after a burn-in; worst, mean, best, also as % of 69.
+    QlearnEval(QlearnEvalArgs),
+}
+
+/// How windows are drawn for the paper's comparison.
+#[derive(clap::Args)]
+struct WindowArgs {
+    /// Steps per window (the paper: 100).
+    #[arg(long, default_value_t = 100)]
+    window: usize,
+    /// (a) Windows from the initial state: one per fresh start of the world.
+    #[arg(long, default_value_t = 10_000)]
+    episodes: usize,
+    /// (b) Independent continuing runs, each from a fresh start.
+    #[arg(long, default_value_t = 16)]
+    chains: usize,
+    /// (b) Steps each continuing run makes before its first window.
+    #[arg(long, default_value_t = 100_000)]
+    burn_in: u64,
+    /// (b) Consecutive windows per continuing run after the burn-in.
+    #[arg(long, default_value_t = 10_000)]
+    windows_per_chain: usize,
+    /// Seed of the evaluation runs.
+    #[arg(long, default_value_t = 0)]
+    eval_seed: u64,
+    /// Percentages are of this reward (the paper's best for case 3: 69).
+    #[arg(long, default_value_t = PAPER_REFERENCE)]
+    reference: f64,
+    /// Worker threads for the evaluation (default: one per core; results do not depend on it).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+impl WindowArgs {
+    fn config(&self) -> WindowConfig {
+        WindowConfig {
+            window: self.window,
+            episodes: self.episodes,
+            chains: self.chains,
+            burn_in: self.burn_in,
+            windows_per_chain: self.windows_per_chain,
+        }
+    }
+}
+
+#[derive(clap::Args)]
+struct QlearnArgs {
+    /// World case: 1 fixed target, 2 moving target unobserved, 3 moving target observed.
+    #[arg(long, default_value_t = 3)]
+    case: u8,
+    /// A world parameter KEY=VALUE (repeatable), as for `optimize`; e.g. --param width=5
+    /// --param height=5 --param start_b=[0,4] --param start_c=[4,4] for a small table.
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    params: Vec<String>,
+    /// Total number of updates (steps) of the run, e.g. 1e9; with --resume the run goes on
+    /// until the table has this many.
+    #[arg(long, default_value = "1e9", value_parser = parse_count)]
+    iterations: u64,
+    /// Seed of the run's random stream.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Discount gamma in [0, 1).
+    #[arg(long, default_value_t = ceworld::qlearn::GAMMA)]
+    gamma: f64,
+    /// Learning rate alpha in (0, 1].
+    #[arg(long, default_value_t = ceworld::qlearn::ALPHA)]
+    alpha: f64,
+    /// How greedy ties are broken, in learning and in the evaluated greedy policy: "random"
+    /// (uniform among the best actions) or "lowest" (the lowest index).
+    #[arg(long, default_value = "random", value_parser = ["random", "lowest"])]
+    ties: String,
+    /// Where to save the learnt table (binary: a JSON header, then little-endian f32 values).
+    #[arg(long, default_value = "qtable.bin", value_name = "FILE")]
+    out: PathBuf,
+    /// Checkpoint file (default: --out); written through a temporary file, so never broken.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between two checkpoints.
+    #[arg(long, default_value_t = 600.0, value_name = "SECONDS")]
+    checkpoint_every: f64,
+    /// Continue the run saved in the checkpoint file.
+    #[arg(long, conflicts_with = "overwrite")]
+    resume: bool,
+    /// Start afresh even if the checkpoint file exists (it is replaced).
+    #[arg(long)]
+    overwrite: bool,
+    /// Do not evaluate the greedy policy at the end.
+    #[arg(long)]
+    no_eval: bool,
+    #[command(flatten)]
+    windows: WindowArgs,
+    /// No progress line.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(clap::Args)]
+struct QlearnEvalArgs {
+    /// A Q table saved by `ceworld qlearn` (its greedy policy is evaluated).
+    table: Option<PathBuf>,
+    /// An HHMM policy file (JSON, SPEC §6) to evaluate on the same windows, e.g. a CE policy
+    /// with levels [16] from `ceworld optimize --case 3 --levels 16`; repeatable.
+    #[arg(long = "ce-policy", value_name = "FILE.json")]
+    ce_policies: Vec<PathBuf>,
+    /// How the greedy policy breaks ties: "random" or "lowest" (default: as in learning).
+    #[arg(long, value_parser = ["random", "lowest"])]
+    ties: Option<String>,
+    #[command(flatten)]
+    windows: WindowArgs,
+    /// Also write the reports as JSON to this file.
+    #[arg(long, value_name = "FILE.json")]
+    json: Option<PathBuf>,
+}
+
+/// A count such as 1000000, 1_000_000 or 1e9.
+fn parse_count(text: &str) -> std::result::Result<u64, String> {
+    let plain = text.replace('_', "");
+    if let Ok(n) = plain.parse::<u64>() {
+        return Ok(n);
+    }
+    match plain.parse::<f64>() {
+        Ok(x) if x >= 0.0 && x.fract() == 0.0 && x <= 9.2e18 => Ok(x as u64),
+        _ => Err(format!("{text:?} (expected a whole number such as 1000000 or 1e9)")),
+    }
+}
+
+/// The process's peak resident memory (VmHWM), in bytes, where the system reports it.
+fn peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kib = status.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.trim().strip_suffix("kB")?.trim();
+    Some(kib.parse::<u64>().ok()? * 1024)
+}
+
+/// A Ctrl-C flag; a second Ctrl-C while the first is being honoured kills the process.
+fn stop_flag() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+    stop
+}
+
+fn run_qlearn(args: QlearnArgs) -> Result<()> {
+    let world = world_from(args.case, &args.params)?;
+    let config = QConfig { gamma: args.gamma, alpha: args.alpha, seed: args.seed, ties: Ties::parse(&args.ties)? };
+    config.validate()?;
+    args.windows.config().validate()?;
+    let checkpoint = args.checkpoint.clone().unwrap_or_else(|| args.out.clone());
+    let mut learner = if args.resume {
+        if !checkpoint.exists() {
+            return Err(Error::invalid(
+                "--resume",
+                format!("{} does not exist (start without --resume)", checkpoint.display()),
+            ));
+        }
+        let learner = load_tracking(&checkpoint)?;
+        if learner.world() != &world {
+            return Err(Error::Mismatch(format!(
+                "the checkpoint {} was made in the world {}, not the one of --case/--param ({})",
+                checkpoint.display(),
+                learner.world().to_json(),
+                world.to_json()
+            )));
+        }
+        if learner.config() != &config {
+            return Err(Error::invalid(
+                "--resume",
+                format!(
+                    "the checkpoint was made with {:?}, not {config:?}: a resumed run keeps its settings",
+                    learner.config()
+                ),
+            ));
+        }
+        learner
+    } else {
+        if checkpoint.exists() && !args.overwrite {
+            return Err(Error::invalid(
+                "--checkpoint",
+                format!("{} exists: pass --resume to continue it or --overwrite to start afresh", checkpoint.display()),
+            ));
+        }
+        QLearner::new(world, config)?
+    };
+    let stop = stop_flag();
+    if !args.quiet {
+        eprintln!(
+            "ceworld qlearn: case {}, {} states × {} actions (f32, {:.2} GiB), gamma {}, alpha {}, epsilon = min(1, 1/ln t), {} ties, seed {}; from {} to {} updates; checkpoint {} every {}s",
+            learner.world().params().case,
+            learner.table().n_states(),
+            learner.table().n_actions(),
+            learner.table().bytes() as f64 / (1u64 << 30) as f64,
+            learner.config().gamma,
+            learner.config().alpha,
+            learner.config().ties.as_str(),
+            learner.config().seed,
+            learner.updates(),
+            args.iterations,
+            checkpoint.display(),
+            args.checkpoint_every
+        );
+    }
+    let mut last_print: Option<Instant> = None;
+    let mut last: Option<QProgress> = None;
+    let outcome = learner.train(args.iterations, Some(&checkpoint), Some(args.checkpoint_every), |p| {
+        if !args.quiet && last_print.is_none_or(|t| t.elapsed().as_millis() >= 250) {
+            last_print = Some(Instant::now());
+            eprint!("\r\x1b[K{}", p.line());
+            let _ = std::io::stderr().flush();
+        }
+        last = Some(p.clone());
+        if stop.load(Ordering::SeqCst) { Flow::Stop } else { Flow::Continue }
+    })?;
+    if !args.quiet {
+        if let Some(p) = &last {
+            eprintln!("\r\x1b[K{}", p.line());
+        }
+    }
+    if !outcome.interrupted && args.out != checkpoint {
+        learner.save(&args.out)?;
+    }
+    let rss = peak_rss().map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64));
+    println!(
+        "{}: {} updates in {:.1}s ({:.2}M updates/s), {} in all; reward per 100 steps of the learning run {:.2}; {} checkpoint(s) to {}; peak RSS {}",
+        if outcome.interrupted { "interrupted" } else { "done" },
+        outcome.updates,
+        outcome.seconds,
+        outcome.updates as f64 / outcome.seconds.max(1e-9) / 1e6,
+        learner.updates(),
+        100.0 * learner.reward_total() / learner.updates().max(1) as f64,
+        outcome.checkpoints,
+        checkpoint.display(),
+        rss
+    );
+    if outcome.interrupted {
+        println!("continue with: ceworld qlearn --resume --checkpoint {} ...", checkpoint.display());
+        return Ok(());
+    }
+    if !args.no_eval {
+        let pool = thread_pool(args.windows.threads)?;
+        let report = pool.install(|| {
+            evaluate_windows(learner.world(), &learner.greedy_policy(), &args.windows.config(), args.windows.eval_seed)
+        })?;
+        let name = format!(
+            "Q-policy (greedy, {} ties, {:.1e} updates)",
+            learner.config().ties.as_str(),
+            learner.updates() as f64
+        );
+        print_windows(&[(name, report)], args.windows.reference);
+    }
+    Ok(())
+}
+
+/// The paper's comparison table: worst, mean and best window, absolute and in % of `reference`.
+fn print_windows(reports: &[(String, WindowReport)], reference: f64) {
+    println!("| policy | windows | worst | mean | best | worst % | mean % | best % |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (name, report) in reports {
+        for (kind, e) in [("from the initial state", &report.from_start), ("after many cycles", &report.continuing)] {
+            println!(
+                "| {name}, {kind} | {} | {} | {:.2} | {} | {:.0} % | {:.1} % | {:.0} % |",
+                e.episodes,
+                e.min,
+                e.mean,
+                e.max,
+                percent(e.min, reference),
+                percent(e.mean, reference),
+                percent(e.max, reference)
+            );
+        }
+    }
+}
+
+fn run_qlearn_eval(args: QlearnEvalArgs) -> Result<()> {
+    if args.table.is_none() && args.ce_policies.is_empty() {
+        return Err(Error::invalid(
+            "qlearn-eval",
+            "nothing to evaluate (expected a TABLE and/or --ce-policy FILE.json)",
+        ));
+    }
+    let config = args.windows.config();
+    config.validate()?;
+    let pool = thread_pool(args.windows.threads)?;
+    let seed = args.windows.eval_seed;
+    let mut reports = Vec::new();
+    if let Some(path) = &args.table {
+        let started = Instant::now();
+        let learner = load_tracking(path)?;
+        eprintln!(
+            "{}: {} updates, loaded in {:.1}s",
+            path.display(),
+            learner.updates(),
+            started.elapsed().as_secs_f64()
+        );
+        let ties = match &args.ties {
+            Some(t) => Ties::parse(t)?,
+            None => learner.config().ties,
+        };
+        let greedy = Greedy { table: learner.table(), ties };
+        let report = pool.install(|| evaluate_windows(learner.world(), &greedy, &config, seed))?;
+        reports.push((
+            format!(
+                "Q-policy (greedy, {} ties; learnt with {} ties, {:.1e} updates)",
+                ties.as_str(),
+                learner.config().ties.as_str(),
+                learner.updates() as f64
+            ),
+            report,
+        ));
+    }
+    for path in &args.ce_policies {
+        let file = PolicyFile::load(path)?;
+        let world = TargetTracking::from_json(&file.world)?;
+        let report = pool.install(|| evaluate_windows(&world, &file.policy, &config, seed))?;
+        reports.push((format!("HHMM {:?} ({})", file.policy.levels(), path.display()), report));
+    }
+    print_windows(&reports, args.windows.reference);
+    if let Some(out) = &args.json {
+        let doc: Vec<Value> = reports
+            .iter()
+            .map(|(name, r)| serde_json::json!({ "policy": name, "reference": args.windows.reference, "report": r }))
+            .collect();
+        let text = serde_json::to_string_pretty(&doc).expect("reports serialise");
+        std::fs::write(out, text).map_err(|source| Error::Io { path: out.clone(), source })?;
+    }
+    Ok(())
 }
 
 #[derive(clap::Args)]
@@ -100,6 +439,15 @@ struct OptimizeArgs {
     /// Fresh episodes used to evaluate the result.
     #[arg(long, default_value_t = 10_000)]
     eval_episodes: usize,
+    /// How the elite's memory is counted: "sampled" (the paper: the memory states that were
+    /// drawn) or "forward-backward" (their posterior expectation given the episode's
+    /// observations and decisions; at most 2 levels).
+    #[arg(long, default_value = "sampled", value_name = "sampled|forward-backward")]
+    memory_update: ceworld::MemoryUpdate,
+    /// Start from a clock: the memory counts the steps and h0 becomes a time-indexed plan
+    /// (needs two equal levels, e.g. --levels 100,100).
+    #[arg(long, conflicts_with_all = ["random_init", "init"])]
+    clock_init: bool,
     /// Start from random tables (drawn from the seed) instead of uniform ones.
     #[arg(long)]
     random_init: bool,
@@ -146,11 +494,13 @@ fn run_optimize(args: OptimizeArgs) -> Result<()> {
         seed: args.seed,
         threads: args.threads,
         eval_episodes: args.eval_episodes,
+        memory_update: args.memory_update,
     };
     config.validate()?;
     let initial = match &args.init {
         Some(path) => PolicyFile::load(path)?.policy,
         None if args.random_init => random_policy(&world, &args.levels, args.seed)?,
+        None if args.clock_init => ceworld::clock_policy(&world, &args.levels)?,
         None => uniform_policy(&world, &args.levels)?,
     };
     let stop = Arc::new(AtomicBool::new(false));
@@ -250,6 +600,8 @@ fn run() -> Result<()> {
             println!("{}", world.case1_optimum()?);
             Ok(())
         }
+        Command::Qlearn(args) => run_qlearn(args),
+        Command::QlearnEval(args) => run_qlearn_eval(args),
     }
 }
 

@@ -1,0 +1,384 @@
+"""Tabular Q-learning, the paper's baseline (SPEC §5, last rows), and the paper's comparison of
+policies on 100-step windows.
+
+The learner sees the last observation and both mobiles' cells and headings (``16 × 1600 × 1600``
+states on the 20 × 20 grid, 16 actions), runs the world as a continuing task (never reset) and
+updates ``Q(s, a) += α (r + γ max Q(s', ·) − Q(s, a))`` with ``γ = 0.99``, ``α = 0.1`` and
+ε-greedy exploration, ``ε_t = min(1, 1/ln t)``; greedy ties are broken uniformly at random
+(``ties="random"``) or by the lowest index (``ties="lowest"``), in learning and in the greedy policy.
+The table is float32, row-major ``[state][action]`` (2.6 GB for the paper's world; a table that
+would not fit in memory is refused with ``MemoryError`` before anything is allocated). See ``docs/qlearning.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Any, Union
+
+import numpy as np
+
+from . import _core
+from . import _validate as check
+from .evaluation import Evaluation
+from .policy import Policy
+from .tracking import TargetTracking, core_world
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+#: The paper's best case-3 reward: the 100 % of its comparison table.
+PAPER_REFERENCE = 69.0
+
+#: Window settings of :meth:`QLearner.evaluate_windows` and :func:`evaluate_windows`.
+WINDOW_DEFAULTS: dict[str, int] = dict(
+    window=100, episodes=10_000, chains=16, burn_in=100_000, windows_per_chain=10_000
+)
+
+
+@dataclass(frozen=True)
+class WindowEvaluation:
+    """The non-discounted reward of windows of a policy's runs, as the paper compares policies.
+
+    Attributes:
+        from_start: (a) one window from each fresh start of the world (the target drawn as in an
+            episode); ``min`` is the worst window, ``max`` the best.
+        continuing: (b) consecutive windows of long continuing runs, after a burn-in ("after
+            many cycles"); consecutive windows are correlated, so its ``std_error`` is optimistic.
+        reference: the reward that counts as 100 % (the paper: 69).
+    """
+
+    from_start: Evaluation
+    continuing: Evaluation
+    reference: float = PAPER_REFERENCE
+
+    def percent(self) -> dict[str, tuple[float, float, float]]:
+        """``{"from_start": (worst, mean, best), "continuing": (...)}`` in % of :attr:`reference`."""
+        return {
+            name: tuple(100.0 * v / self.reference for v in (e.min, e.mean, e.max))  # type: ignore[misc]
+            for name, e in (("from_start", self.from_start), ("continuing", self.continuing))
+        }
+
+    @classmethod
+    def _from_dict(cls, d: dict[str, Any], reference: float) -> WindowEvaluation:
+        return cls(Evaluation._from_dict(d["from_start"]), Evaluation._from_dict(d["continuing"]), reference)
+
+    def __repr__(self) -> str:
+        p = self.percent()
+        a, b = p["from_start"], p["continuing"]
+        return (
+            f"WindowEvaluation(from_start: worst/mean/best {a[0]:.0f}/{a[1]:.0f}/{a[2]:.0f} % over "
+            f"{self.from_start.episodes} windows; continuing: {b[0]:.0f}/{b[1]:.0f}/{b[2]:.0f} % over "
+            f"{self.continuing.episodes} windows; of {self.reference:g})"
+        )
+
+
+def _window_args(settings: dict[str, Any]) -> dict[str, int]:
+    unknown = set(settings) - set(WINDOW_DEFAULTS)
+    if unknown:
+        raise check.invalid("window setting", sorted(unknown)[0], f"one of {sorted(WINDOW_DEFAULTS)}")
+    merged = {**WINDOW_DEFAULTS, **settings}
+    return {name: check.count(name, value) for name, value in merged.items()}
+
+
+class QLearner:
+    """A Q-learning run on a target-tracking world: the table and everything needed to go on.
+
+    Make one with :func:`qlearning` (which also trains it) or :meth:`load`; train it further with
+    :meth:`train`; evaluate its greedy policy (ties broken as in learning) like a policy with
+    :meth:`evaluate_windows`.
+
+    Attributes:
+        interrupted: whether Ctrl-C stopped the last :meth:`train`.
+
+    Example:
+        >>> world = TargetTracking(case=3, width=5, height=5, start_b=[0, 4], start_c=[4, 4],
+        ...                        target_rows=[0, 2], target_cell=[2, 2])
+        >>> learner = qlearning(world, iterations=10_000, progress=False)
+        >>> learner.updates, learner.table.shape
+        (10000, (160000, 16))
+    """
+
+    __slots__ = ("_core", "interrupted")
+
+    def __init__(self, core: _core.QLearner) -> None:
+        if not isinstance(core, _core.QLearner):
+            raise TypeError("use cehmm.qlearning or QLearner.load to make a QLearner")
+        self._core = core
+        self.interrupted = False
+
+    @classmethod
+    def new(
+        cls, world: TargetTracking, gamma: float = 0.99, alpha: float = 0.1, seed: int = 0, ties: str = "random"
+    ) -> QLearner:
+        """A fresh run with a zero table, not trained yet.
+
+        Raises:
+            MemoryError: the table would not fit in the memory the system reports available.
+            InvalidArgumentError: ``gamma`` outside ``[0, 1)``, ``alpha`` outside ``(0, 1]``, or
+                ``ties`` neither ``"random"`` nor ``"lowest"``.
+        """
+        core = _core.QLearner(
+            core_world(world),
+            gamma=check.real("gamma", gamma),
+            alpha=check.real("alpha", alpha),
+            seed=check.seed(seed),
+            ties=_ties(ties),
+        )
+        return cls(core)
+
+    @classmethod
+    def load(cls, path: PathLike) -> QLearner:
+        """Reads a run saved by :meth:`save` or a ``ceworld qlearn`` table/checkpoint."""
+        return cls(_core.QLearner.load(os.fspath(path)))
+
+    def save(self, path: PathLike) -> None:
+        """Writes the run: a JSON header (settings, counters, random stream, world state), then the
+        table as little-endian float32; through a temporary file, so never half-written."""
+        self._core.save(os.fspath(path))
+
+    def train(
+        self,
+        iterations: int,
+        *,
+        checkpoint: PathLike | None = None,
+        checkpoint_every: float | None = None,
+        progress: bool = True,
+    ) -> QLearner:
+        """Runs updates until the run has ``iterations`` in all (a run is continued, not restarted).
+
+        With ``checkpoint``, the run is saved there every ``checkpoint_every`` seconds (if given),
+        when Ctrl-C stops it and at the end. Ctrl-C stops between chunks of about a million
+        updates and sets :attr:`interrupted` (no exception). Returns ``self``.
+        """
+        outcome = self._core.train(
+            check.count("iterations", iterations),
+            progress=check.flag("progress", progress),
+            checkpoint=None if checkpoint is None else os.fspath(checkpoint),
+            checkpoint_every=check.optional_real("checkpoint_every", checkpoint_every),
+        )
+        self.interrupted = outcome["interrupted"]
+        return self
+
+    def evaluate_windows(
+        self,
+        world: TargetTracking | None = None,
+        *,
+        seed: int = 0,
+        threads: int | None = None,
+        reference: float = PAPER_REFERENCE,
+        ties: str | None = None,
+        **windows: int,
+    ) -> WindowEvaluation:
+        """The greedy policy's reward on windows, as the paper evaluates it.
+
+        Args:
+            world: the world (default: the run's own).
+            seed: seed of the evaluation runs (reproducible whatever ``threads``).
+            threads: worker threads (default: one per core).
+            ties: ``"random"`` or ``"lowest"`` (default: as in learning, :attr:`ties`).
+            reference: the reward counted as 100 % (the paper: 69).
+            **windows: ``window`` (steps per window, 100), ``episodes`` (windows from the initial
+                state, 10,000), ``chains`` (continuing runs, 16), ``burn_in`` (steps before the
+                first window of each run, 100,000), ``windows_per_chain`` (10,000).
+        """
+        core = self._core.evaluate_windows(
+            core_world(self.world if world is None else world),
+            seed=check.seed(seed),
+            threads=check.optional_count("threads", threads),
+            ties=None if ties is None else _ties(ties),
+            **_window_args(windows),
+        )
+        return WindowEvaluation._from_dict(core, check.real("reference", reference))
+
+    @property
+    def updates(self) -> int:
+        """Updates run so far (``t`` of the last one)."""
+        return self._core.updates
+
+    @property
+    def epsilon(self) -> float:
+        """The exploration rate of the next update, ``min(1, 1/ln t)``."""
+        return epsilon(self.updates + 1)
+
+    @property
+    def n_states(self) -> int:
+        """Number of known states (rows of the table)."""
+        return self._core.n_states
+
+    @property
+    def n_actions(self) -> int:
+        """Number of actions (columns of the table)."""
+        return self._core.n_actions
+
+    @property
+    def table_bytes(self) -> int:
+        """Size of the table in bytes (4 per value)."""
+        return self._core.table_bytes
+
+    @property
+    def gamma(self) -> float:
+        """Discount ``γ``."""
+        return self._core.gamma
+
+    @property
+    def alpha(self) -> float:
+        """Learning rate ``α``."""
+        return self._core.alpha
+
+    @property
+    def seed(self) -> int:
+        """Seed of the run's random stream."""
+        return self._core.seed
+
+    @property
+    def ties(self) -> str:
+        """How greedy ties are broken, in learning and in the greedy policy: ``"random"`` or ``"lowest"``."""
+        return self._core.ties
+
+    @property
+    def reward_total(self) -> float:
+        """Sum of the rewards of every update (the ε-greedy learning run's own reward)."""
+        return self._core.reward_total
+
+    @property
+    def seconds(self) -> float:
+        """Seconds spent learning, over every session."""
+        return self._core.seconds
+
+    @property
+    def header(self) -> dict[str, Any]:
+        """The header of the run's file: settings, counters, random stream and world state."""
+        return self._core.header()
+
+    @property
+    def world(self) -> TargetTracking:
+        """The world the table was learnt in."""
+        return TargetTracking.from_dict(self._core.world())
+
+    @property
+    def table(self) -> np.ndarray:
+        """A copy of the table, float32, shape ``(n_states, n_actions)`` (2.6 GB for the paper's world)."""
+        return self._core.table()
+
+    def row(self, state: int) -> np.ndarray:
+        """``Q(state, ·)``, float32, shape ``(n_actions,)``."""
+        return self._core.row(check.count("state", state))
+
+    def greedy_actions(self, state: int) -> np.ndarray:
+        """The greedy actions of ``state``: every action of maximal value (int64, ascending)."""
+        row = self.row(state)
+        return np.flatnonzero(row == row.max())
+
+    def state_index(self, state: Any, y: int) -> int:
+        """The known state of a world state seen through observation ``y``: ``(y·P + B)·P + C``.
+
+        Args:
+            state: ``(b_i, b_j, b_heading, c_i, c_j, c_heading, target_i, target_j)``, as in a
+                rollout's ``x`` row (the target is not part of the known state).
+            y: the observation.
+        """
+        return self._core.state_index([int(v) for v in state], check.count("y", y))
+
+    def __repr__(self) -> str:
+        return (
+            f"QLearner(updates={self.updates}, states={self.n_states}, actions={self.n_actions}, "
+            f"gamma={self.gamma:g}, alpha={self.alpha:g}, ties={self.ties!r}, seed={self.seed}, "
+            f"reward_per_100={100.0 * self.reward_total / max(self.updates, 1):.2f})"
+        )
+
+
+def _ties(value: Any) -> str:
+    if value not in ("random", "lowest"):
+        raise check.invalid("ties", value, "'random' or 'lowest'")
+    return str(value)
+
+
+def epsilon(t: int) -> float:
+    """``ε_t = min(1, 1/ln t)`` for update ``t`` (counted from 1): 1 while ``t <= 2``."""
+    t = check.count("t", t)
+    return 1.0 if t < 3 else 1.0 / math.log(t)
+
+
+def qlearning(
+    world: TargetTracking,
+    iterations: int = 10**9,
+    *,
+    seed: int = 0,
+    gamma: float = 0.99,
+    alpha: float = 0.1,
+    ties: str = "random",
+    checkpoint: PathLike | None = None,
+    checkpoint_every: float | None = 600.0,
+    resume: bool = False,
+    progress: bool = True,
+) -> QLearner:
+    """Q-learning on ``world`` as a continuing task, the paper's baseline; returns the learner.
+
+    Args:
+        world: the world (``TargetTracking(case=3)`` for the paper's table of 655 million values).
+        iterations: number of updates in all.
+        seed: seed of the run's single random stream.
+        gamma: discount, ``0 <= gamma < 1``.
+        alpha: learning rate, ``0 < alpha <= 1``.
+        ties: how greedy ties are broken, in learning and in the greedy policy: ``"random"``
+            (uniformly among the best actions) or ``"lowest"`` (the lowest index).
+        checkpoint: a file where the run is saved every ``checkpoint_every`` seconds, on Ctrl-C and
+            at the end.
+        checkpoint_every: seconds between checkpoints.
+        resume: continue the run saved in ``checkpoint`` (if the file exists) instead of starting
+            afresh; the resumed run is exactly the one that was interrupted.
+        progress: print a live progress line on stderr.
+
+    Raises:
+        MemoryError: the table would not fit in the memory the system reports available.
+        InvalidArgumentError: a bad argument, or ``resume`` with settings other than the checkpoint's.
+        PolicyMismatchError: the checkpoint was made in another world.
+    """
+    if resume and checkpoint is not None and os.path.exists(checkpoint):
+        learner = QLearner.load(checkpoint)
+        if learner.world.params != world.params:
+            raise _core.PolicyMismatchError(
+                f"the checkpoint {os.fspath(checkpoint)} was made in the world {learner.world.params}, "
+                f"not {world.params}"
+            )
+        wanted = (check.real("gamma", gamma), check.real("alpha", alpha), check.seed(seed), _ties(ties))
+        if (learner.gamma, learner.alpha, learner.seed, learner.ties) != wanted:
+            raise check.invalid(
+                "resume",
+                dict(gamma=gamma, alpha=alpha, seed=seed, ties=ties),
+                f"the checkpoint's settings gamma={learner.gamma}, alpha={learner.alpha}, seed={learner.seed}, "
+                f"ties={learner.ties!r}",
+            )
+    else:
+        learner = QLearner.new(world, gamma=gamma, alpha=alpha, seed=seed, ties=ties)
+    return learner.train(iterations, checkpoint=checkpoint, checkpoint_every=checkpoint_every, progress=progress)
+
+
+def evaluate_windows(
+    policy: Policy | QLearner,
+    world: TargetTracking | None = None,
+    *,
+    seed: int = 0,
+    threads: int | None = None,
+    reference: float = PAPER_REFERENCE,
+    **windows: int,
+) -> WindowEvaluation:
+    """Any policy — an HHMM :class:`Policy` (run continuously: memory carried, start tables only at
+    the very first step) or a :class:`QLearner`'s greedy policy — on the paper's windows; see
+    :meth:`QLearner.evaluate_windows` for the arguments.
+    """
+    if isinstance(policy, QLearner):
+        return policy.evaluate_windows(world, seed=seed, threads=threads, reference=reference, **windows)
+    if not isinstance(policy, Policy):
+        raise check.invalid("policy", policy, "a cehmm.Policy or a cehmm.QLearner")
+    if world is None:
+        world = TargetTracking.from_dict(policy.world)
+    core = _core.evaluate_policy_windows(
+        policy._core,
+        core_world(world),
+        seed=check.seed(seed),
+        threads=check.optional_count("threads", threads),
+        **_window_args(windows),
+    )
+    return WindowEvaluation._from_dict(core, check.real("reference", reference))

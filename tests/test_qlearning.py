@@ -1,0 +1,160 @@
+"""Q-learning (the paper's baseline) and the window evaluation, on a 5 × 5 grid: its table has
+16 × 100 × 100 states × 16 actions (10 MB), never the paper's 2.6 GB."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import cehmm
+
+
+@pytest.fixture(scope="module")
+def grid5() -> cehmm.TargetTracking:
+    return cehmm.TargetTracking(
+        case=3, width=5, height=5, start_b=[0, 4], start_c=[4, 4], target_rows=[0, 2], target_cell=[2, 2]
+    )
+
+
+@pytest.fixture(scope="module")
+def learnt(grid5: cehmm.TargetTracking) -> cehmm.QLearner:
+    return cehmm.qlearning(grid5, iterations=50_000, seed=1, progress=False)
+
+
+SMALL_WINDOWS = dict(episodes=300, chains=3, burn_in=1000, windows_per_chain=100)
+
+
+def test_table_shape_and_counters(learnt: cehmm.QLearner) -> None:
+    assert learnt.updates == 50_000
+    assert (learnt.n_states, learnt.n_actions) == (16 * 100 * 100, 16)
+    assert learnt.table_bytes == 16 * 100 * 100 * 16 * 4
+    table = learnt.table
+    assert table.dtype == np.float32 and table.shape == (160_000, 16)
+    assert np.all(np.isfinite(table)) and table.min() >= 0.0 and table.max() <= 1 / (1 - 0.99)
+    assert table.max() > 0.0
+    assert (learnt.gamma, learnt.alpha, learnt.seed, learnt.ties) == (0.99, 0.1, 1, "random")
+    assert 0 < learnt.reward_total <= 50_000
+    assert learnt.world.params["width"] == 5
+    assert "QLearner(updates=50000" in repr(learnt)
+
+
+def test_state_index_is_the_papers_index(learnt: cehmm.QLearner) -> None:
+    # P = 4 · 5 · 5 = 100 configurations per mobile: B = (j·5 + i)·4 + heading.
+    b, c = (2 * 5 + 1) * 4 + 3, (4 * 5 + 4) * 4 + 2
+    assert learnt.state_index([1, 2, 3, 4, 4, 2, 0, 0], y=7) == (7 * 100 + b) * 100 + c
+    s = learnt.state_index([1, 2, 3, 4, 4, 2, 0, 0], y=7)
+    row = learnt.row(s)
+    assert row.shape == (16,) and np.array_equal(row, learnt.table[s])
+    assert list(learnt.greedy_actions(s)) == [a for a in range(16) if row[a] == row.max()]
+    with pytest.raises(cehmm.InvalidArgumentError):
+        learnt.state_index([9, 9, 9, 9, 9, 9, 9, 9], y=0)
+
+
+def test_hand_checked_first_update(grid5: cehmm.TargetTracking) -> None:
+    # From a zero table the first update is Q(s1, a1) = 0.1 · r1 (max Q(s2, ·) = 0): at most one
+    # value changes, by 0.1 if the first step was an encounter.
+    learner = cehmm.qlearning(grid5, iterations=1, seed=4, progress=False)
+    nonzero = np.flatnonzero(learner.table)
+    assert learner.reward_total in (0.0, 1.0)
+    if learner.reward_total == 1.0:
+        assert len(nonzero) == 1 and learner.table.flat[nonzero[0]] == np.float32(0.1)
+    else:
+        assert len(nonzero) == 0
+
+
+def test_epsilon_schedule() -> None:
+    from cehmm.qlearning import epsilon
+
+    assert epsilon(1) == 1.0 and epsilon(2) == 1.0
+    assert epsilon(3) == pytest.approx(1 / math.log(3))
+    assert epsilon(10**9) == pytest.approx(0.048254, abs=1e-6)
+
+
+def test_resume_continues_exactly(grid5: cehmm.TargetTracking, tmp_path) -> None:
+    straight = cehmm.qlearning(grid5, iterations=2000, seed=5, progress=False)
+    path = tmp_path / "run.qtable"
+    half = cehmm.qlearning(grid5, iterations=1000, seed=5, checkpoint=path, progress=False)
+    assert half.updates == 1000 and path.exists()
+    resumed = cehmm.qlearning(grid5, iterations=2000, seed=5, checkpoint=path, resume=True, progress=False)
+    assert resumed.updates == 2000
+    assert np.array_equal(straight.table, resumed.table)
+    assert straight.header["rng"] == resumed.header["rng"]
+    assert straight.header["world_state"] == resumed.header["world_state"]
+    assert cehmm.QLearner.load(path).updates == 2000
+    with pytest.raises(cehmm.InvalidArgumentError, match="seed"):
+        cehmm.qlearning(grid5, iterations=3000, seed=6, checkpoint=path, resume=True, progress=False)
+
+
+def test_save_and_load_round_trip(learnt: cehmm.QLearner, tmp_path) -> None:
+    path = tmp_path / "q.bin"
+    learnt.save(path)
+    with open(path, "rb") as f:
+        assert f.read(8) == b"CEQTABLE"
+    loaded = cehmm.QLearner.load(path)
+    assert loaded.updates == learnt.updates
+    assert np.array_equal(loaded.table, learnt.table)
+    assert loaded.header["format"] == "cehmm-qtable"
+    with pytest.raises(FileNotFoundError):
+        cehmm.QLearner.load(tmp_path / "missing.bin")
+    (tmp_path / "junk.bin").write_bytes(b"not a table at all")
+    with pytest.raises(cehmm.PolicyFormatError, match="not a cehmm Q table"):
+        cehmm.QLearner.load(tmp_path / "junk.bin")
+
+
+def test_window_evaluation(learnt: cehmm.QLearner) -> None:
+    e = learnt.evaluate_windows(seed=3, **SMALL_WINDOWS)
+    assert e.from_start.episodes == 300 and e.continuing.episodes == 300
+    for part in (e.from_start, e.continuing):
+        assert 0 <= part.min <= part.mean <= part.max <= 100
+    worst, mean, best = e.percent()["from_start"]
+    assert mean == pytest.approx(100 * e.from_start.mean / 69)
+    assert (worst, best) == (pytest.approx(100 * e.from_start.min / 69), pytest.approx(100 * e.from_start.max / 69))
+    again = cehmm.evaluate_windows(learnt, seed=3, threads=1, **SMALL_WINDOWS)
+    assert again == e, "reproducible whatever the thread count"
+    assert "worst/mean/best" in repr(e)
+    with pytest.raises(cehmm.InvalidArgumentError):
+        learnt.evaluate_windows(frames=3)
+    with pytest.raises(cehmm.InvalidArgumentError, match="window"):
+        learnt.evaluate_windows(window=0)
+
+
+def test_window_evaluation_of_an_hhmm_policy(grid5: cehmm.TargetTracking) -> None:
+    policy = cehmm.Policy.random(grid5, [16], seed=2)
+    e = cehmm.evaluate_windows(policy, grid5, seed=9, **SMALL_WINDOWS)
+    # (a) windows from the start are the policy's ordinary episodes, same streams.
+    ordinary = policy.evaluate(grid5, episodes=300, seed=9)
+    assert e.from_start.mean == pytest.approx(ordinary.mean)
+    assert (e.from_start.min, e.from_start.max) == (ordinary.min, ordinary.max)
+    assert e.continuing.episodes == 300
+
+
+def test_lowest_ties_learn_another_table(grid5: cehmm.TargetTracking) -> None:
+    lowest = cehmm.qlearning(grid5, iterations=5000, seed=1, ties="lowest", progress=False)
+    random = cehmm.qlearning(grid5, iterations=5000, seed=1, progress=False)
+    assert lowest.ties == "lowest" and not np.array_equal(lowest.table, random.table)
+    a = lowest.evaluate_windows(seed=2, **SMALL_WINDOWS)
+    b = lowest.evaluate_windows(seed=2, ties="lowest", **SMALL_WINDOWS)
+    assert a == b, "the greedy policy breaks ties as in learning by default"
+    with pytest.raises(cehmm.InvalidArgumentError, match="ties"):
+        cehmm.qlearning(grid5, iterations=1, ties="first", progress=False)
+
+
+def test_a_table_too_big_for_memory_is_refused() -> None:
+    huge = cehmm.TargetTracking(case=3, width=1000, height=1000)
+    with pytest.raises(MemoryError, match="bytes"):
+        cehmm.qlearning(huge, iterations=1, progress=False)
+
+
+def test_bad_arguments(grid5: cehmm.TargetTracking) -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match="gamma"):
+        cehmm.qlearning(grid5, iterations=1, gamma=1.0, progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="alpha"):
+        cehmm.qlearning(grid5, iterations=1, alpha=0.0, progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="iterations"):
+        cehmm.qlearning(grid5, iterations=-1, progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="policy"):
+        cehmm.evaluate_windows("not a policy", grid5)
+    with pytest.raises(TypeError):
+        cehmm.QLearner(object())  # type: ignore[arg-type]
