@@ -115,6 +115,16 @@ ROWS: list[dict[str, Any]] = [
 SETTINGS: dict[str, dict[str, dict[str, Any]]] = {
     # The paper's basic CE: N = 1000, ρ = 0.5, α = 1, uniform initial tables.
     "paper": {"*": {"samples": 1000, "rho": 0.5, "smoothing": 1.0}},
+    # What docs/findings.md found works better; every other row as in "paper". Case 1 and case 2
+    # get a clock memory (a time-indexed plan, levels [100, 100]), case 2 also N = 2000, and
+    # [256, 256] N = 3000 (its rows are too many for the elite of N = 1000).
+    "tuned": {
+        "*": {"samples": 1000, "rho": 0.5, "smoothing": 1.0},
+        "c1-16-weak": {"levels": [100, 100], "init": "clock"},
+        "c2-16x16-weak": {"levels": [100, 100], "init": "clock", "samples": 2000},
+        "c3-256x256-weak": {"samples": 3000},
+        "c3-256x256-strong": {"samples": 3000},
+    },
     # The smoke run of --quick: a few small iterations, small models.
     "quick": {
         "*": {"samples": 100, "rho": 0.5, "smoothing": 1.0, "max_iterations": 5, "eval_episodes": 200},
