@@ -350,6 +350,13 @@ struct AliasScratch {
 fn build_alias(probs: &[f64], alias: &mut [AliasEntry], scratch: &mut AliasScratch) {
     let AliasScratch { small, large, scaled } = scratch;
     let n = probs.len();
+    // Fast path for one-hot rows, the common case once basic CE has converged.
+    let mut nonzero = probs.iter().enumerate().filter(|(_, p)| **p > 0.0);
+    if let (Some((k, _)), None) = (nonzero.next(), nonzero.next()) {
+        alias.fill(AliasEntry { threshold: 0, alias: k as u32 });
+        alias[k] = AliasEntry { threshold: u32::MAX, alias: k as u32 };
+        return;
+    }
     let total: f64 = probs.iter().sum();
     scaled.clear();
     scaled.extend(probs.iter().map(|p| p * n as f64 / total));
