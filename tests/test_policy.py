@@ -133,7 +133,10 @@ def test_from_tables_round_trip(case1: cehmm.TargetTracking, trained: cehmm.Opti
         (lambda d: d["policy"]["upper"][0].update(start=[[0.5, 0.5]]), r"policy\.upper\[0\]\.start\[0\] has length 2"),
         (lambda d: d["policy"]["h0"][2].__setitem__(0, -0.0625), r"h0\[2\]\[0\] = -0\.0625 .*>= 0"),
         (lambda d: d["policy"]["h1"][5][1].__setitem__(0, 0.5), r"row h1\[5\]\[1\] sums to 1\.25"),
-        (lambda d: d["policy"]["upper"][0]["step"][3][0].__setitem__(2, 0.0), r"row upper\[0\]\.step\[3\]\[0\] sums to"),
+        (
+            lambda d: d["policy"]["upper"][0]["step"][3][0].__setitem__(2, 0.0),
+            r"row upper\[0\]\.step\[3\]\[0\] sums to",
+        ),
         (lambda d: d.update(format="something-else"), r"format"),
         (lambda d: d.update(version=2), r"version"),
         (lambda d: d["policy"].pop("h1"), r"policy\.h1 is missing"),
