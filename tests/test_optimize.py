@@ -180,3 +180,13 @@ def test_forward_backward_memory_update():
         cehmm.optimize(world, memory_update="viterbi", progress=False)
     with pytest.raises(cehmm.InvalidArgumentError, match="at most 2 levels"):
         cehmm.optimize(world, levels=[4, 2, 2], memory_update="forward-backward", max_iterations=1, progress=False)
+
+
+def test_restarts_keep_the_best_run():
+    world = cehmm.TargetTracking(case=1)
+    kwargs = dict(levels=[4], samples=100, max_iterations=3, eval_episodes=50, progress=False)
+    result = cehmm.optimize(world, restarts=3, **kwargs)
+    assert result.policy.provenance["restarts"] == 3
+    assert 0 <= result.policy.provenance["restart"] < 3
+    with pytest.raises(cehmm.InvalidArgumentError, match="restarts"):
+        cehmm.optimize(world, restarts=0, **kwargs)

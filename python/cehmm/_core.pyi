@@ -147,6 +147,7 @@ def optimize(
     eval_episodes: int,
     progress: bool,
     memory_update: str = "sampled",
+    restarts: int = 1,
 ) -> OptimizeDict: ...
 
 class WindowsDict(TypedDict):

@@ -81,6 +81,7 @@ def optimize(
     eval_episodes: int = 10000,
     init: Init = None,
     memory_update: str = "sampled",
+    restarts: int = 1,
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (SPEC §3).
 
@@ -113,6 +114,9 @@ def optimize(
             ``"forward-backward"`` (count their posterior expectation given each elite episode's
             observations and decisions; at most 2 levels, and needs ``init="random"`` to break
             the symmetry of uniform tables).
+        restarts: independent runs (the first with ``seed``, the others with seeds derived from
+            it); the one whose policy scores best on ``eval_episodes`` selection episodes is
+            returned, and evaluated on other, fresh episodes. ``time_limit`` covers them all.
 
     Returns:
         an :class:`OptimizeResult`.
@@ -145,6 +149,7 @@ def optimize(
         eval_episodes=check.count("eval_episodes", eval_episodes),
         progress=check.flag("progress", progress),
         memory_update=check.choice("memory_update", memory_update, ("sampled", "forward-backward")),
+        restarts=check.count("restarts", restarts),
     )
     return OptimizeResult(
         policy=Policy(raw["policy"]),

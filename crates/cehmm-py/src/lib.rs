@@ -529,7 +529,7 @@ impl Progress {
 #[pyfunction]
 #[pyo3(signature = (
     world, initial, *, samples, rho, smoothing, patience, max_iterations, time_limit, target, seed, threads,
-    eval_episodes, progress, memory_update = "sampled"
+    eval_episodes, progress, memory_update = "sampled", restarts = 1
 ))]
 #[allow(clippy::too_many_arguments)]
 fn optimize<'py>(
@@ -548,6 +548,7 @@ fn optimize<'py>(
     eval_episodes: usize,
     progress: bool,
     memory_update: &str,
+    restarts: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let memory_update = memory_update.parse().map_err(raise)?;
     let config = CeConfig {
@@ -562,6 +563,7 @@ fn optimize<'py>(
         threads,
         eval_episodes,
         memory_update,
+        restarts,
     };
     let world = &world.world;
     let initial = initial.file.policy.clone();

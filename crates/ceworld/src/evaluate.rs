@@ -67,6 +67,22 @@ pub fn rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -
         .collect())
 }
 
+/// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between
+/// policies that leaves the `Evaluate` episodes fresh for reporting the chosen one.
+pub fn selection_mean<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
+    check_fits(world, policy)?;
+    let total: f64 = (0..episodes)
+        .into_par_iter()
+        .map(|k| {
+            let mut rng = stream(seed, Purpose::Select, 0, k as u64);
+            run_with(world, policy, &mut rng, |_, _, _, _, _| {})
+        })
+        .collect::<Vec<f64>>()
+        .iter()
+        .sum();
+    Ok(total / episodes as f64)
+}
+
 /// Mean, standard error, extremes and quantiles of the reward over fresh episodes.
 pub fn evaluate<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Evaluation> {
     Ok(Evaluation::from_rewards(&rewards(world, policy, episodes, seed)?))

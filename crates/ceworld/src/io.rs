@@ -202,6 +202,8 @@ impl PolicyFile {
                 "rho": config.rho,
                 "alpha": config.smoothing,
                 "patience": config.patience,
+                "restarts": config.restarts,
+                "restart": result.restart,
                 "iterations": result.history.len(),
                 "best_iteration": result.best_iteration,
                 "best_iteration_mean": best.mean,

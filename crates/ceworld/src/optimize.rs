@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::episode::{count_episode, run_recorded};
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, check_fits, evaluate};
+use crate::evaluate::{Evaluation, check_fits, evaluate, selection_mean};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, stream, stream_key};
 use crate::world::World;
@@ -38,6 +38,10 @@ pub struct CeConfig {
     pub eval_episodes: usize,
     /// How the elite's memory is counted: as sampled (the paper) or re-inferred.
     pub memory_update: MemoryUpdate,
+    /// Independent runs (the first with `seed`, the others with seeds derived from it); the one
+    /// whose policy scores best on `eval_episodes` selection episodes is returned, evaluated on
+    /// other, fresh episodes. The time limit is shared by all the runs.
+    pub restarts: usize,
 }
 
 /// How the CE update counts the memory of the elite episodes.
@@ -90,6 +94,7 @@ impl Default for CeConfig {
             threads: None,
             eval_episodes: 10_000,
             memory_update: MemoryUpdate::Sampled,
+            restarts: 1,
         }
     }
 }
@@ -148,6 +153,9 @@ impl CeConfig {
         }
         if self.threads == Some(0) {
             return Err(Error::invalid("threads", "0 (expected at least 1, or none for one per core)"));
+        }
+        if self.restarts == 0 {
+            return Err(Error::invalid("restarts", "0 (expected at least 1 run)"));
         }
         if self.eval_episodes == 0 || self.eval_episodes > MAX_EPISODES {
             return Err(Error::invalid(
@@ -231,8 +239,10 @@ pub struct CeResult {
     pub stop: StopReason,
     /// `policy` evaluated on fresh episodes (an unbiased estimate, unlike the best mean).
     pub evaluation: Evaluation,
-    /// Wall seconds, evaluation included.
+    /// Wall seconds, evaluation included (of every restart).
     pub seconds: f64,
+    /// Which restart this is (0 for the run with the given seed).
+    pub restart: usize,
 }
 
 impl CeResult {
@@ -255,7 +265,8 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 }
 
 /// Runs the cross-entropy method from `initial` until a stopping rule holds, calling
-/// `observer` after every iteration (on the calling thread).
+/// `observer` after every iteration (on the calling thread; iterations count from 0 again at
+/// each restart).
 pub fn optimize<W: World>(
     world: &W,
     initial: Hhmm,
@@ -263,6 +274,51 @@ pub fn optimize<W: World>(
     mut observer: impl FnMut(&IterationRecord) -> Flow,
 ) -> Result<CeResult> {
     config.validate()?;
+    if config.restarts == 1 {
+        return optimize_once(world, initial, config, &mut observer);
+    }
+    let started = Instant::now();
+    let pool = thread_pool(config.threads)?;
+    let mut best: Option<(f64, CeResult)> = None;
+    let mut interrupted = false;
+    for restart in 0..config.restarts {
+        let mut run = CeConfig { restarts: 1, ..config.clone() };
+        if restart > 0 {
+            run.seed = stream_key(config.seed, Purpose::Restart, restart as u64, 0);
+        }
+        if let Some(limit) = config.time_limit {
+            let left = limit - started.elapsed().as_secs_f64();
+            if left <= 0.0 {
+                break;
+            }
+            run.time_limit = Some(left);
+        }
+        let mut result = optimize_once(world, initial.clone(), &run, &mut observer)?;
+        result.restart = restart;
+        interrupted |= result.interrupted();
+        let score = pool.install(|| selection_mean(world, &result.policy, config.eval_episodes, config.seed))?;
+        if best.as_ref().is_none_or(|(s, _)| score > *s) {
+            best = Some((score, result));
+        }
+        if interrupted {
+            break;
+        }
+    }
+    let (_, mut result) = best.expect("the first run always completes");
+    if interrupted {
+        result.stop = StopReason::Interrupted;
+    }
+    result.seconds = started.elapsed().as_secs_f64();
+    Ok(result)
+}
+
+/// One run of [`optimize`] (its `restarts` is ignored).
+fn optimize_once<W: World>(
+    world: &W,
+    initial: Hhmm,
+    config: &CeConfig,
+    observer: &mut dyn FnMut(&IterationRecord) -> Flow,
+) -> Result<CeResult> {
     check_fits(world, &initial)?;
     if config.memory_update == MemoryUpdate::ForwardBackward {
         crate::posterior::check_supported(initial.layout())?;
@@ -409,6 +465,7 @@ pub fn optimize<W: World>(
         stop,
         evaluation,
         seconds: started.elapsed().as_secs_f64(),
+        restart: 0,
     })
 }
 

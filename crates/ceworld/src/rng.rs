@@ -21,6 +21,10 @@ pub enum Purpose {
     Init = 4,
     /// The single sequential stream of a Q-learning run (its state is saved in checkpoints).
     QLearning = 5,
+    /// Seeds of the restarts of an optimisation after the first.
+    Restart = 6,
+    /// Episodes that choose the best of several restarts (disjoint from `Evaluate`'s).
+    Select = 7,
 }
 
 /// SplitMix64's finaliser: a bijective 64-bit mixer with good avalanche.

@@ -315,3 +315,30 @@ fn forward_backward_update_is_thread_count_independent_and_refused_above_two_lev
     let e = optimize(&world, uniform_policy(&world, &[4, 2, 2]).unwrap(), &config, |_| Flow::Continue).unwrap_err();
     assert!(e.to_string().contains("at most 2 levels"), "{e}");
 }
+
+#[test]
+fn restarts_return_the_best_run_on_selection_episodes() {
+    let world = TargetTracking::new(3).unwrap();
+    let start = || uniform_policy(&world, &[4]).unwrap();
+    let one = optimize(&world, start(), &small(200, 3), |_| Flow::Continue).unwrap();
+    let config = CeConfig { restarts: 3, ..small(200, 3) };
+    let mut runs = 0;
+    let best = optimize(&world, start(), &config, |r| {
+        runs += (r.iteration == 0) as usize;
+        Flow::Continue
+    })
+    .unwrap();
+    assert_eq!(runs, 3);
+    assert!(best.restart < 3);
+    if best.restart == 0 {
+        assert!(best.policy == one.policy, "restart 0 is the run with the given seed");
+    }
+    let score = |p: &Hhmm| ceworld::evaluate::selection_mean(&world, p, 100, 0).unwrap();
+    // The chosen run scores at least as well as the plain run on the selection episodes.
+    assert!(score(&best.policy) >= score(&one.policy));
+    let two_threads = optimize(&world, start(), &CeConfig { threads: Some(2), ..config.clone() }, |_| Flow::Continue);
+    let one_thread = optimize(&world, start(), &CeConfig { threads: Some(1), ..config }, |_| Flow::Continue);
+    assert!(two_threads.unwrap().policy == one_thread.unwrap().policy);
+    let e = optimize(&world, start(), &CeConfig { restarts: 0, ..small(200, 3) }, |_| Flow::Continue).unwrap_err();
+    assert!(e.to_string().contains("restarts"), "{e}");
+}

@@ -448,6 +448,10 @@ struct OptimizeArgs {
     /// (needs two equal levels, e.g. --levels 100,100).
     #[arg(long, conflicts_with_all = ["random_init", "init"])]
     clock_init: bool,
+    /// Independent runs; the best, chosen on separate episodes, is kept (the first run uses
+    /// --seed, the others seeds derived from it).
+    #[arg(long, default_value_t = 1)]
+    restarts: usize,
     /// Start from random tables (drawn from the seed) instead of uniform ones.
     #[arg(long)]
     random_init: bool,
@@ -495,6 +499,7 @@ fn run_optimize(args: OptimizeArgs) -> Result<()> {
         threads: args.threads,
         eval_episodes: args.eval_episodes,
         memory_update: args.memory_update,
+        restarts: args.restarts,
     };
     config.validate()?;
     let initial = match &args.init {
@@ -530,7 +535,14 @@ fn run_optimize(args: OptimizeArgs) -> Result<()> {
     let mut best_iteration = 0;
     let mut since = 0;
     let mut last_print = Instant::now();
+    let mut runs = 0;
     let result = optimize(&world, initial, &config, |r| {
+        if r.iteration == 0 {
+            runs += 1;
+            if runs > 1 && !args.quiet {
+                eprintln!("\nrestart {} of {}", runs, config.restarts);
+            }
+        }
         if r.successful {
             best_mean = r.mean;
             best_iteration = r.iteration;
@@ -553,6 +565,9 @@ fn run_optimize(args: OptimizeArgs) -> Result<()> {
     let e = &result.evaluation;
     if !args.quiet {
         eprintln!();
+    }
+    if config.restarts > 1 {
+        println!("best of {} restarts: restart {}", config.restarts, result.restart);
     }
     println!(
         "{}: {} iterations in {:.1}s, best iteration {} (mean {:.2}); evaluation on {} fresh episodes: {:.2} ± {:.2} (min {}, max {}); saved {}",
