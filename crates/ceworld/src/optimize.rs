@@ -151,8 +151,8 @@ impl CeConfig {
                 return Err(Error::invalid("target", "NaN (expected a reward)"));
             }
         }
-        if self.threads == Some(0) {
-            return Err(Error::invalid("threads", "0 (expected at least 1, or none for one per core)"));
+        if let Some(n) = self.threads {
+            check_threads(n)?;
         }
         if self.restarts == 0 {
             return Err(Error::invalid("restarts", "0 (expected at least 1 run)"));
@@ -252,13 +252,21 @@ impl CeResult {
     }
 }
 
+/// Most worker threads of one pool.
+pub const MAX_THREADS: usize = 1024;
+
+fn check_threads(n: usize) -> Result<()> {
+    if n == 0 || n > MAX_THREADS {
+        return Err(Error::invalid("threads", format!("{n} (expected 1..={MAX_THREADS}, or none for one per core)")));
+    }
+    Ok(())
+}
+
 /// A rayon pool of `threads` workers (all cores when `None`).
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
-        if n == 0 {
-            return Err(Error::invalid("threads", "0 (expected at least 1, or none for one per core)"));
-        }
+        check_threads(n)?;
         builder = builder.num_threads(n);
     }
     builder.build().map_err(|e| Error::invalid("threads", e.to_string()))

@@ -195,6 +195,7 @@ fn bad_settings_are_refused_by_name() {
         (CeConfig { smoothing: 0.0, ..CeConfig::default() }, "smoothing"),
         (CeConfig { patience: 0, ..CeConfig::default() }, "patience"),
         (CeConfig { threads: Some(0), ..CeConfig::default() }, "threads"),
+        (CeConfig { threads: Some(1_000_000), ..CeConfig::default() }, "threads"),
     ] {
         match optimize(&world, start.clone(), &config, |_| Flow::Continue) {
             Err(Error::InvalidArgument { name: got, .. }) => assert_eq!(got, name),
