@@ -4,19 +4,33 @@ use crate::policy::{Hhmm, Layout};
 use crate::rng::EngineRng;
 use crate::world::World;
 
+/// The memory `m_1..m_Λ` of one episode: on the stack up to 16 levels (no allocation per
+/// episode), on the heap beyond.
+struct Memory {
+    inline: [u16; 16],
+    heap: Vec<u16>,
+    depth: usize,
+}
+
+impl Memory {
+    #[inline]
+    fn new(depth: usize) -> Memory {
+        Memory { inline: [0; 16], heap: if depth > 16 { vec![0; depth] } else { Vec::new() }, depth }
+    }
+
+    #[inline]
+    fn as_mut(&mut self) -> &mut [u16] {
+        if self.depth <= 16 { &mut self.inline[..self.depth] } else { &mut self.heap }
+    }
+}
+
 /// Runs one episode, writing step `t`'s `[y, d, m_1, ..., m_Λ]` at
 /// `record[t * width .. (t + 1) * width]` (`width = Layout::record_width`), and returns `V`.
 #[inline]
 pub fn run_recorded<W: World>(world: &W, policy: &Hhmm, rng: &mut EngineRng, record: &mut [u16]) -> f64 {
     let width = policy.layout().record_width();
-    let mut storage = [0u16; 16];
-    let mut heap;
-    let memory: &mut [u16] = if width - 2 <= storage.len() {
-        &mut storage[..width - 2]
-    } else {
-        heap = vec![0u16; width - 2];
-        &mut heap
-    };
+    let mut buffer = Memory::new(width - 2);
+    let memory = buffer.as_mut();
     let mut state = world.reset(rng);
     for (t, step) in record.chunks_exact_mut(width).take(world.horizon()).enumerate() {
         let y = world.observe(&state, rng);
@@ -39,15 +53,8 @@ pub fn run_with<W: World, F>(world: &W, policy: &Hhmm, rng: &mut EngineRng, mut 
 where
     F: FnMut(usize, usize, usize, &[u16], &W::State),
 {
-    let mut memory = [0u16; 16];
-    let depth = policy.levels().len();
-    let mut heap;
-    let memory: &mut [u16] = if depth <= memory.len() {
-        &mut memory[..depth]
-    } else {
-        heap = vec![0u16; depth];
-        &mut heap
-    };
+    let mut buffer = Memory::new(policy.levels().len());
+    let memory = buffer.as_mut();
     let mut state = world.reset(rng);
     for t in 0..world.horizon() {
         let y = world.observe(&state, rng);

@@ -58,28 +58,26 @@ pub fn rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -
     if episodes == 0 || episodes > crate::optimize::MAX_EPISODES {
         return Err(Error::invalid("episodes", format!("{episodes} (expected 1..={})", crate::optimize::MAX_EPISODES)));
     }
-    Ok((0..episodes)
+    Ok(episode_rewards(world, policy, episodes, seed, Purpose::Evaluate))
+}
+
+/// Rewards of the episodes of streams `(seed, purpose, 0, k)`, `k < episodes`, in order.
+fn episode_rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64, purpose: Purpose) -> Vec<f64> {
+    (0..episodes)
         .into_par_iter()
         .map(|k| {
-            let mut rng = stream(seed, Purpose::Evaluate, 0, k as u64);
+            let mut rng = stream(seed, purpose, 0, k as u64);
             run_with(world, policy, &mut rng, |_, _, _, _, _| {})
         })
-        .collect())
+        .collect()
 }
 
 /// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between
 /// policies that leaves the `Evaluate` episodes fresh for reporting the chosen one.
 pub fn selection_mean<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
     check_fits(world, policy)?;
-    let total: f64 = (0..episodes)
-        .into_par_iter()
-        .map(|k| {
-            let mut rng = stream(seed, Purpose::Select, 0, k as u64);
-            run_with(world, policy, &mut rng, |_, _, _, _, _| {})
-        })
-        .collect::<Vec<f64>>()
-        .iter()
-        .sum();
+    // Summed in episode order, so the score does not depend on the thread count.
+    let total: f64 = episode_rewards(world, policy, episodes, seed, Purpose::Select).iter().sum();
     Ok(total / episodes as f64)
 }
 
