@@ -277,38 +277,77 @@ impl TargetTracking {
 
     /// The exact optimum of case 1 (fixed target): a breadth-first search over each mobile's
     /// configurations (cell × heading) finds the fewest moves `k` that bring it within the
-    /// reward radius; it can then stay, so the optimum is `T − min k` (SPEC §4: 86).
+    /// reward radius; it can then stay, so the optimum is `T − min k` (SPEC §4: 86). The
+    /// number is the score of [`case1_optimal_plan`](Self::case1_optimal_plan) replayed through
+    /// the world's own `step` and `reward`, so the search and the simulator must agree.
     pub fn case1_optimum(&self) -> Result<u32> {
+        let plan = self.case1_optimal_plan()?;
+        let mut rng = crate::rng::stream(0, crate::rng::Purpose::Evaluate, 0, 0);
+        let mut state = self.reset(&mut rng);
+        for &d in &plan {
+            self.step(&mut state, d, &mut rng);
+        }
+        Ok(self.reward(&state) as u32)
+    }
+
+    /// An optimal open-loop plan for case 1: the joint decisions `d_1..d_T` that move the
+    /// mobile closer to the target (in moves) along a shortest path into the reward zone, the
+    /// other mobile and then both staying put.
+    pub fn case1_optimal_plan(&self) -> Result<Vec<usize>> {
         let p = &self.params;
         if p.case != 1 {
             return Err(Error::invalid("case", format!("{} (the exact optimum is known for case 1 only)", p.case)));
         }
         let start = self.initial_state(p.target_cell);
-        let k = [start.b, start.c].into_iter().filter_map(|m| self.moves_to_encounter(m)).min();
-        Ok(k.map_or(0, |k| p.horizon.saturating_sub(k) as u32))
+        let paths = [self.path_to_encounter(start.b), self.path_to_encounter(start.c)];
+        let (mobile, path) = match paths {
+            [Some(b), Some(c)] if c.len() < b.len() => (1, c),
+            [Some(b), _] => (0, b),
+            [None, Some(c)] => (1, c),
+            [None, None] => (0, Vec::new()),
+        };
+        let joint = |a: usize| if mobile == 0 { 4 * a + NO_MOVE } else { 4 * NO_MOVE + a };
+        let mut plan: Vec<usize> = path.into_iter().map(joint).collect();
+        plan.resize(p.horizon, 4 * NO_MOVE + NO_MOVE);
+        Ok(plan)
     }
 
-    /// Fewest moves for one mobile to come within the reward radius of the fixed target.
-    fn moves_to_encounter(&self, start: Mobile) -> Option<usize> {
+    /// The moves of a shortest path for one mobile into the reward zone of the fixed target.
+    fn path_to_encounter(&self, start: Mobile) -> Option<Vec<usize>> {
         let p = &self.params;
         let index = |m: Mobile| ((m.j * p.width + m.i) * 4 + m.heading as i32) as usize;
-        let mut dist = vec![usize::MAX; (p.width * p.height * 4) as usize];
+        // For each reached configuration: the configuration it was reached from and the move.
+        let mut parent: Vec<Option<(Mobile, usize)>> = vec![None; (p.width * p.height * 4) as usize];
+        let mut seen = vec![false; parent.len()];
         let mut queue = VecDeque::from([start]);
-        dist[index(start)] = 0;
+        seen[index(start)] = true;
         while let Some(m) = queue.pop_front() {
-            let k = dist[index(m)];
             if chebyshev(m.cell(), p.target_cell) <= p.reward_radius {
-                return Some(k);
+                let mut moves = Vec::new();
+                let mut at = m;
+                while let Some((from, a)) = parent[index(at)] {
+                    moves.push(a);
+                    at = from;
+                }
+                moves.reverse();
+                return Some(moves);
             }
             for a in [TURN_LEFT, TURN_RIGHT, FORWARD] {
                 let next = m.apply(a, p.width, p.height);
-                if dist[index(next)] == usize::MAX {
-                    dist[index(next)] = k + 1;
+                if !seen[index(next)] {
+                    seen[index(next)] = true;
+                    parent[index(next)] = Some((m, a));
                     queue.push_back(next);
                 }
             }
         }
         None
+    }
+
+    /// Fewest moves for one mobile to come within the reward radius of the fixed target.
+    #[cfg(test)]
+    fn moves_to_encounter(&self, start: Mobile) -> Option<usize> {
+        self.path_to_encounter(start).map(|path| path.len())
     }
 }
 
@@ -607,6 +646,73 @@ mod tests {
             w.step(&mut s, (t * 7) % 16, &mut r);
         }
         assert!((0.0..=100.0).contains(&w.reward(&s)));
+    }
+
+    /// Pearson's chi-square of `n` draws of the target's next cell against `law`.
+    fn move_chi2(law: &[([i32; 2], f64)], n: usize, mut draw: impl FnMut() -> [i32; 2]) -> f64 {
+        let mut counts = vec![0u32; law.len()];
+        for _ in 0..n {
+            let next = draw();
+            let k = law.iter().position(|(cell, _)| *cell == next).unwrap_or_else(|| panic!("{next:?} not allowed"));
+            counts[k] += 1;
+        }
+        law.iter().zip(&counts).map(|((_, p), &c)| (c as f64 - p * n as f64).powi(2) / (p * n as f64)).sum()
+    }
+
+    #[test]
+    fn target_move_law_by_hand_on_an_asymmetric_corner() {
+        // Target in the corner (0, 0), B at (2, 0), C at (0, 1). Weights |r' − B|² + |r' − C|²:
+        // (0,0): 4 + 1 = 5, (1,0): 1 + 2 = 3, (0,1): 5 + 0 = 5, (1,1): 2 + 1 = 3; total 16.
+        // Swapping i and j in the weights gives 5, 5, 3, 3, and so does transposing the drawn
+        // cell: both are far outside the test's tolerance.
+        let law = [([0, 0], 5.0 / 16.0), ([1, 0], 3.0 / 16.0), ([0, 1], 5.0 / 16.0), ([1, 1], 3.0 / 16.0)];
+        for (cell, p) in move_law([0, 0], [2, 0], [0, 1]) {
+            let hand = law.iter().find(|(c, _)| *c == cell).unwrap().1;
+            assert!((p - hand).abs() < 1e-12, "{cell:?}: {p} vs {hand}");
+        }
+        let w = world(3);
+        let mut r = stream(8, Purpose::Optimise, 0, 0);
+        let chi2 = move_chi2(&law, 100_000, || w.move_target([0, 0], [2, 0], [0, 1], &mut r));
+        assert!(chi2 < 16.27, "chi2 = {chi2} on 3 degrees of freedom (0.999 quantile 16.27)");
+    }
+
+    #[test]
+    fn target_moves_by_the_law_through_world_step() {
+        // An interior cell with B and C near it and placed asymmetrically in i and j (the mobiles
+        // do not move, so each step draws from the same law). Swapping i and j in the weights
+        // gives a chi-square near 48,000 here, transposing the drawn cell near 9,700.
+        let w = world(3);
+        let (b, c, target) = ((8, 4, UP), (6, 5, LEFT), [6, 4]);
+        let law = move_law(target, [b.0, b.1], [c.0, c.1]);
+        let transposed = |cell: [i32; 2]| [target[0] + cell[1] - target[1], target[1] + cell[0] - target[0]];
+        let p = |cell: [i32; 2]| law.iter().find(|(c, _)| *c == cell).unwrap().1;
+        assert!(law.iter().any(|&(cell, q)| (q - p(transposed(cell))).abs() > 0.05), "the case must be asymmetric");
+        let mut r = stream(9, Purpose::Optimise, 0, 0);
+        let chi2 = move_chi2(&law, 100_000, || {
+            let mut s = state(b, c, target);
+            w.step(&mut s, 4 * NO_MOVE + NO_MOVE, &mut r);
+            s.target
+        });
+        assert!(chi2 < 26.12, "chi2 = {chi2} on 8 degrees of freedom (0.999 quantile 26.12)");
+    }
+
+    #[test]
+    fn case_1_optimal_plan_replayed_through_the_world_scores_86() {
+        let w = world(1);
+        let plan = w.case1_optimal_plan().unwrap();
+        assert_eq!(plan.len(), 100);
+        let mut r = rng();
+        let mut s = w.reset(&mut r);
+        let mut first_reward = None;
+        for (t, &d) in plan.iter().enumerate() {
+            if first_reward.is_none() && w.encounter(&s) {
+                first_reward = Some(t);
+            }
+            w.step(&mut s, d, &mut r);
+        }
+        assert_eq!(w.reward(&s), 86.0);
+        assert_eq!(first_reward, Some(14), "14 moves, then every step is rewarded");
+        assert!(w.encounter(&s), "the mobile stays in the zone");
     }
 
     #[test]

@@ -1,5 +1,8 @@
 //! The `ceworld` binary: happy paths, clear errors (exit code 2, never a panic), Ctrl-C.
 
+mod common;
+#[cfg(unix)]
+use common::interrupt_when_ready;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -95,19 +98,23 @@ fn bad_policy_files_are_refused() {
 #[test]
 fn ctrl_c_saves_the_best_policy_so_far() {
     let path = temp("interrupted.json");
-    let child = Command::new(env!("CARGO_BIN_EXE_ceworld"))
-        .args(["optimize", "--case", "3", "--levels", "16,16", "--samples", "500", "--patience", "100000"])
-        .args(["--eval-episodes", "100", "--quiet", "--out", path.to_str().unwrap()])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(status.success());
-    let out = child.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stdout).starts_with("interrupted:"));
+    let (status, stdout, stderr) = interrupt_when_ready(&[
+        "optimize",
+        "--case",
+        "3",
+        "--levels",
+        "16,16",
+        "--samples",
+        "500",
+        "--patience",
+        "100000",
+        "--eval-episodes",
+        "100",
+        "--out",
+        path.to_str().unwrap(),
+    ]);
+    assert!(status.success(), "{stderr}");
+    assert!(stdout.starts_with("interrupted:"), "{stdout}");
     let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(doc["provenance"]["interrupted"], true);
     assert!(doc["provenance"]["iterations"].as_u64().unwrap() >= 1);

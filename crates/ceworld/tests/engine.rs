@@ -2,11 +2,12 @@
 //! determinism across thread counts, and policy files.
 
 use ceworld::episode::{count_episode, run_with};
-use ceworld::rng::{EngineRng, Purpose, stream};
+use ceworld::rng::{EngineRng, Purpose, stream, stream_key};
 use ceworld::{
     CeConfig, Error, Flow, Hhmm, Layout, PolicyFile, StopReason, TargetTracking, World, optimize, random_policy,
     uniform_policy,
 };
+use rand::Rng;
 
 /// A tiny world: `horizon` steps, `n_obs` observations (always 0), decisions `0..n_decisions`,
 /// and `V` = the sum of the decisions.
@@ -342,4 +343,234 @@ fn restarts_return_the_best_run_on_selection_episodes() {
     assert!(two_threads.unwrap().policy == one_thread.unwrap().policy);
     let e = optimize(&world, start(), &CeConfig { restarts: 0, ..small(200, 3) }, |_| Flow::Continue).unwrap_err();
     assert!(e.to_string().contains("restarts"), "{e}");
+}
+
+/// A world whose reward is one uniform draw in [0, 1) made at reset: N episodes give N
+/// distinct rewards, whatever the policy, and the test can recompute them.
+struct Noise;
+
+impl World for Noise {
+    type State = f64;
+    fn n_observations(&self) -> usize {
+        1
+    }
+    fn n_decisions(&self) -> usize {
+        2
+    }
+    fn horizon(&self) -> usize {
+        1
+    }
+    fn reset(&self, rng: &mut EngineRng) -> f64 {
+        (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn observe(&self, _: &f64, _: &mut EngineRng) -> usize {
+        0
+    }
+    fn step(&self, _: &mut f64, _: usize, _: &mut EngineRng) {}
+    fn reward(&self, s: &f64) -> f64 {
+        *s
+    }
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({"name": "noise"})
+    }
+}
+
+#[test]
+fn elite_size_is_ceil_rho_n() {
+    for (samples, rho, elite) in [(10, 0.5, 5), (10, 0.25, 3), (8, 0.5, 4), (7, 0.1, 1), (1000, 0.1, 100)] {
+        let config = CeConfig { rho, ..small(samples, 1) };
+        assert_eq!(config.elite_count(), elite, "N = {samples}, rho = {rho}");
+        // The first iteration's elite, recomputed from the same episode streams.
+        let policy = uniform_policy(&Noise, &[1]).unwrap();
+        let r = optimize(&Noise, policy.clone(), &config, |_| Flow::Continue).unwrap();
+        let mut rewards: Vec<f64> = (0..samples as u64)
+            .map(|k| run_with(&Noise, &policy, &mut stream(config.seed, Purpose::Optimise, 0, k), |_, _, _, _, _| {}))
+            .collect();
+        rewards.sort_by(|a, b| b.total_cmp(a));
+        let h = &r.history[0];
+        assert_eq!(h.elite_threshold, rewards[elite - 1], "N = {samples}, rho = {rho}");
+        let elite_mean = rewards[..elite].iter().sum::<f64>() / elite as f64;
+        assert!((h.elite_mean - elite_mean).abs() < 1e-12, "N = {samples}, rho = {rho}");
+        assert_eq!(h.best, rewards[0]);
+    }
+}
+
+/// The count at `index` (one index per axis) of table `table`.
+fn count_at(layout: &Layout, counts: &[u32], table: usize, index: &[usize]) -> u32 {
+    let s = &layout.tables[table];
+    assert_eq!(index.len(), s.dims.len());
+    let flat = index.iter().zip(&s.dims).fold(0, |flat, (&i, &d)| {
+        assert!(i < d);
+        flat * d + i
+    });
+    counts[s.offset + flat]
+}
+
+#[test]
+fn counting_three_levels_by_hand() {
+    // Λ = 3, levels [2, 3, 2], Y = 2, D = 2. Level 2 is conditioned on m3 (its upper level),
+    // level 3 (the top) on nothing above it.
+    let layout = Layout::new(2, 2, &[2, 3, 2]).unwrap();
+    // [y, d, m1, m2, m3] at t = 1, 2, 3
+    let record: [u16; 15] = [1, 0, 1, 2, 1, /* t=2 */ 0, 1, 0, 1, 0, /* t=3 */ 1, 1, 1, 0, 1];
+    let mut counts = vec![0u32; layout.len];
+    count_episode(&layout, &record, &mut counts);
+    let at = |table, index: &[usize]| count_at(&layout, &counts, table, index);
+    // h0[m1][d]
+    assert_eq!([at(0, &[1, 0]), at(0, &[0, 1]), at(0, &[1, 1])], [1, 1, 1]);
+    // h1[y][m2][m1]
+    assert_eq!([at(1, &[1, 2, 1]), at(1, &[0, 1, 0]), at(1, &[1, 0, 1])], [1, 1, 1]);
+    // upper[0].start[m3][m2] at t = 1: conditioned on m3 = 1
+    assert_eq!(at(2, &[1, 2]), 1);
+    // upper[0].step[m1(t-1)][m3(t)][m2(t)]: (1, 0, 1) at t = 2, (0, 1, 0) at t = 3
+    assert_eq!([at(3, &[1, 0, 1]), at(3, &[0, 1, 0])], [1, 1]);
+    // upper[1].start[0][m3] at t = 1
+    assert_eq!(at(4, &[0, 1]), 1);
+    // upper[1].step[m2(t-1)][0][m3(t)]: (2, 0, 0) at t = 2, (1, 0, 1) at t = 3
+    assert_eq!([at(5, &[2, 0, 0]), at(5, &[1, 0, 1])], [1, 1]);
+    assert_eq!(counts.iter().sum::<u32>(), 3 + 3 + 1 + 2 + 1 + 2, "nothing else counted");
+}
+
+#[test]
+fn counting_four_levels_by_hand() {
+    // Λ = 4, levels [2, 3, 2, 2], Y = 1, D = 2: level l is conditioned on m_{l+1} below the top.
+    let layout = Layout::new(1, 2, &[2, 3, 2, 2]).unwrap();
+    // [y, d, m1, m2, m3, m4] at t = 1, 2
+    let record: [u16; 12] = [0, 1, 1, 2, 0, 1, /* t=2 */ 0, 0, 0, 1, 1, 0];
+    let mut counts = vec![0u32; layout.len];
+    count_episode(&layout, &record, &mut counts);
+    let at = |table, index: &[usize]| count_at(&layout, &counts, table, index);
+    assert_eq!([at(0, &[1, 1]), at(0, &[0, 0])], [1, 1]);
+    assert_eq!([at(1, &[0, 2, 1]), at(1, &[0, 1, 0])], [1, 1]);
+    // level 2 on m3: start[m3 = 0][m2 = 2]; step[m1(1) = 1][m3(2) = 1][m2(2) = 1]
+    assert_eq!([at(2, &[0, 2]), at(3, &[1, 1, 1])], [1, 1]);
+    // level 3 on m4: start[m4 = 1][m3 = 0]; step[m2(1) = 2][m4(2) = 0][m3(2) = 1]
+    assert_eq!([at(4, &[1, 0]), at(5, &[2, 0, 1])], [1, 1]);
+    // level 4, the top: start[0][m4 = 1]; step[m3(1) = 0][0][m4(2) = 0]
+    assert_eq!([at(6, &[0, 1]), at(7, &[0, 0, 0])], [1, 1]);
+    assert_eq!(counts.iter().sum::<u32>(), 2 + 2 + 3 * 2, "nothing else counted");
+}
+
+/// `close(got, p, n)`: a frequency over `n` draws within 4 standard deviations of `p`.
+fn close(got: u32, n: u32, p: f64) {
+    let f = got as f64 / n as f64;
+    let sd = (p * (1.0 - p) / n as f64).sqrt();
+    assert!((f - p).abs() < 4.0 * sd, "frequency {f} over {n} vs probability {p} (4 sd = {})", 4.0 * sd);
+}
+
+#[test]
+fn three_level_sampling_follows_the_upper_condition() {
+    // Λ = 3, levels [2, 2, 2], Y = 1, D = 2, two steps. Level 2's rows depend strongly on m3.
+    let layout = Layout::new(1, 2, &[2, 2, 2]).unwrap();
+    let h0 = vec![0.5; 4];
+    let h1 = vec![0.8, 0.2, 0.35, 0.65]; // h1[0][m2][m1]
+    let start2 = vec![0.9, 0.1, 0.2, 0.8]; // upper[0].start[m3][m2]
+    let step2 = vec![0.7, 0.3, 0.1, 0.9, 0.6, 0.4, 0.25, 0.75]; // upper[0].step[m1][m3][m2]
+    let start3 = vec![0.4, 0.6]; // upper[1].start[0][m3]
+    let step3 = vec![0.5, 0.5, 0.3, 0.7]; // upper[1].step[m2][0][m3]
+    let policy = Hhmm::from_flat(layout, [h0, h1, start2, step2, start3, step3].concat()).unwrap();
+    let world = Sum { horizon: 2, n_obs: 1, n_decisions: 2 };
+    // [condition][outcome] tallies
+    let (mut m3_first, mut m2_first) = ([0u32; 2], [[0u32; 2]; 2]);
+    let (mut m3_next, mut m2_next) = ([[0u32; 2]; 2], [[[0u32; 2]; 2]; 2]);
+    let mut m1_given_m2 = [[0u32; 2]; 2];
+    for k in 0..100_000 {
+        let mut previous = [0usize; 3];
+        run_with(&world, &policy, &mut stream(12, Purpose::Evaluate, 0, k), |t, _, _, m, _| {
+            let (m1, m2, m3) = (m[0] as usize, m[1] as usize, m[2] as usize);
+            if t == 0 {
+                m3_first[m3] += 1;
+                m2_first[m3][m2] += 1;
+            } else {
+                m3_next[previous[1]][m3] += 1;
+                m2_next[previous[0]][m3][m2] += 1;
+            }
+            m1_given_m2[m2][m1] += 1;
+            previous = [m1, m2, m3];
+        });
+    }
+    let total = |row: [u32; 2]| row[0] + row[1];
+    close(m3_first[1], total(m3_first), 0.6);
+    close(m2_first[0][1], total(m2_first[0]), 0.1);
+    close(m2_first[1][1], total(m2_first[1]), 0.8);
+    close(m3_next[0][1], total(m3_next[0]), 0.5);
+    close(m3_next[1][1], total(m3_next[1]), 0.7);
+    for (m1, m3, p) in [(0, 0, 0.3), (0, 1, 0.9), (1, 0, 0.4), (1, 1, 0.75)] {
+        close(m2_next[m1][m3][1], total(m2_next[m1][m3]), p);
+    }
+    close(m1_given_m2[0][1], total(m1_given_m2[0]), 0.2);
+    close(m1_given_m2[1][1], total(m1_given_m2[1]), 0.65);
+}
+
+/// Rewards the plan "decision `t mod D` at step `t`": `V` counts the steps that follow it. No
+/// observation helps, so only a memory that counts time can follow it.
+struct Plan {
+    horizon: usize,
+    n_decisions: usize,
+}
+
+impl World for Plan {
+    type State = (usize, u32);
+    fn n_observations(&self) -> usize {
+        1
+    }
+    fn n_decisions(&self) -> usize {
+        self.n_decisions
+    }
+    fn horizon(&self) -> usize {
+        self.horizon
+    }
+    fn reset(&self, _: &mut EngineRng) -> (usize, u32) {
+        (0, 0)
+    }
+    fn observe(&self, _: &(usize, u32), _: &mut EngineRng) -> usize {
+        0
+    }
+    fn step(&self, s: &mut (usize, u32), d: usize, _: &mut EngineRng) {
+        s.1 += (d == s.0 % self.n_decisions) as u32;
+        s.0 += 1;
+    }
+    fn reward(&self, s: &(usize, u32)) -> f64 {
+        s.1 as f64
+    }
+    fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({"name": "plan"})
+    }
+}
+
+#[test]
+fn a_clock_policy_learns_a_time_indexed_plan() {
+    let world = Plan { horizon: 6, n_decisions: 3 };
+    let config = CeConfig { rho: 0.1, ..small(1000, 10) };
+    let r = optimize(&world, ceworld::clock_policy(&world, &[6, 6]).unwrap(), &config, |_| Flow::Continue).unwrap();
+    // h0[t] puts (almost) all its mass on decision t mod 3, and the plan is followed.
+    for (t, row) in r.policy.table(0).chunks(3).enumerate() {
+        assert!(row[t % 3] > 0.9, "h0[{t}] = {row:?}");
+    }
+    assert!(r.evaluation.mean > 5.5, "{}", r.evaluation.mean);
+    // Without memory the best is 2 of 6 (one decision for every step).
+    let memoryless = optimize(&world, uniform_policy(&world, &[1]).unwrap(), &config, |_| Flow::Continue).unwrap();
+    assert!(memoryless.evaluation.mean <= 2.0 + 1e-9, "{}", memoryless.evaluation.mean);
+}
+
+#[test]
+fn restarts_choose_the_run_that_scores_best_on_selection_episodes() {
+    // Each restart reconstructed by hand from its documented seed: the returned policy is the
+    // one of the run with the highest selection mean.
+    let world = TargetTracking::new(3).unwrap();
+    let start = || uniform_policy(&world, &[4]).unwrap();
+    let base = small(200, 3);
+    let runs: Vec<(f64, Hhmm)> = (0..4u64)
+        .map(|restart| {
+            let seed = if restart == 0 { base.seed } else { stream_key(base.seed, Purpose::Restart, restart, 0) };
+            let r = optimize(&world, start(), &CeConfig { seed, ..base.clone() }, |_| Flow::Continue).unwrap();
+            (ceworld::evaluate::selection_mean(&world, &r.policy, base.eval_episodes, base.seed).unwrap(), r.policy)
+        })
+        .collect();
+    let best = (0..4).max_by(|&a, &b| runs[a].0.total_cmp(&runs[b].0)).unwrap();
+    let worst = (0..4).min_by(|&a, &b| runs[a].0.total_cmp(&runs[b].0)).unwrap();
+    assert!(runs[best].0 > runs[worst].0, "the runs must differ for the test to mean anything");
+    let chosen = optimize(&world, start(), &CeConfig { restarts: 4, ..base.clone() }, |_| Flow::Continue).unwrap();
+    assert_eq!(chosen.restart, best);
+    assert!(chosen.policy == runs[best].1);
 }

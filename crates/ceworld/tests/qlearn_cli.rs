@@ -1,6 +1,9 @@
 //! `ceworld qlearn` and `ceworld qlearn-eval` on a 5 × 5 grid (a 10 MB table): runs, files,
 //! resume, Ctrl-C, and the refusal of a table that does not fit in memory.
 
+mod common;
+#[cfg(unix)]
+use common::interrupt_when_ready;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -110,23 +113,15 @@ fn resume_continues_and_an_existing_checkpoint_is_not_overwritten() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("keeps its settings"));
 }
 
+#[cfg(unix)]
 #[test]
 fn ctrl_c_saves_a_checkpoint_to_resume_from() {
     let path = temp("interrupted.bin");
-    let mut args = vec!["qlearn", "--param", "target_cell=[2,2]", "--iterations", "1e12", "--quiet"];
+    let mut args = vec!["qlearn", "--param", "target_cell=[2,2]", "--iterations", "1e12"];
     args.extend(SMALL);
     args.extend(["--out", path.to_str().unwrap()]);
-    let child = Command::new(env!("CARGO_BIN_EXE_ceworld"))
-        .args(&args)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(1500));
-    assert!(Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap().success());
-    let out = child.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let (status, stdout, stderr) = interrupt_when_ready(&args);
+    assert!(status.success(), "{stderr}");
     assert!(stdout.starts_with("interrupted:") && stdout.contains("--resume"), "{stdout}");
     let updates = header(&path)["updates"].as_u64().unwrap();
     assert!(updates > 0 && updates % ceworld::qlearn::CHUNK == 0, "{updates}");
