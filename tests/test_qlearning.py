@@ -53,18 +53,24 @@ def test_state_index_is_the_papers_index(learnt: cehmm.QLearner) -> None:
 
 
 def test_hand_checked_first_update(grid5: cehmm.TargetTracking) -> None:
-    # From a zero table the first update is Q(s1, a1) = 0.1 · r1 (max Q(s2, ·) = 0): at most one
-    # value changes, by 0.1 if the first step was an encounter.
-    learner = cehmm.qlearning(grid5, iterations=1, seed=4, progress=False)
-    nonzero = np.flatnonzero(learner.table)
-    assert learner.reward_total in (0.0, 1.0)
-    if learner.reward_total == 1.0:
-        assert len(nonzero) == 1 and learner.table.flat[nonzero[0]] == np.float32(0.1)
-    else:
-        assert len(nonzero) == 0
+    # From a zero table the first update is Q(s1, a1) = 0.1 · r1 (max Q(s2, ·) = 0): exactly one
+    # value becomes 0.1 when the first step is an encounter, none changes otherwise. Both cases
+    # occur among the seeds tried, so both assertions run.
+    seen = set()
+    for seed in range(12):
+        learner = cehmm.qlearning(grid5, iterations=1, seed=seed, progress=False)
+        nonzero = np.flatnonzero(learner.table)
+        assert learner.reward_total in (0.0, 1.0)
+        if learner.reward_total == 1.0:
+            assert len(nonzero) == 1 and learner.table.flat[nonzero[0]] == np.float32(0.1)
+        else:
+            assert len(nonzero) == 0
+        seen.add(learner.reward_total)
+    assert seen == {0.0, 1.0}
 
 
 def test_epsilon_schedule() -> None:
+    # The engine's own schedule (cehmm.qlearning.epsilon calls it), not a Python copy.
     from cehmm.qlearning import epsilon
 
     assert epsilon(1) == 1.0 and epsilon(2) == 1.0

@@ -160,6 +160,7 @@ class TrainDict(TypedDict):
     interrupted: bool
     checkpoints: int
 
+def epsilon(t: int) -> float: ...
 def evaluate_policy_windows(
     policy: Policy,
     world: TargetTracking,

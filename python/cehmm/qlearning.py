@@ -12,7 +12,6 @@ would not fit in memory is refused with ``MemoryError`` before anything is alloc
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from typing import Any, Union
@@ -296,8 +295,7 @@ def _ties(value: Any) -> str:
 
 def epsilon(t: int) -> float:
     """``ε_t = min(1, 1/ln t)`` for update ``t`` (counted from 1): 1 while ``t <= 2``."""
-    t = check.count("t", t)
-    return 1.0 if t < 3 else 1.0 / math.log(t)
+    return _core.epsilon(check.count("t", t))
 
 
 def qlearning(

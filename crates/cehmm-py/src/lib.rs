@@ -638,6 +638,12 @@ fn window_report_dict<'py>(py: Python<'py>, report: &WindowReport) -> PyResult<B
     Ok(d)
 }
 
+/// The exploration rate of Q-learning update `t` (`ceworld::qlearn::epsilon`).
+#[pyfunction]
+fn epsilon(t: u64) -> f64 {
+    ceworld::qlearn::epsilon(t)
+}
+
 /// An HHMM policy evaluated on 100-step windows as the paper compares policies (see
 /// `ceworld::qlearn::evaluate_windows`).
 #[pyfunction]
@@ -881,6 +887,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optimize, m)?)?;
     m.add_class::<PyQLearner>()?;
     m.add_function(wrap_pyfunction!(evaluate_policy_windows, m)?)?;
+    m.add_function(wrap_pyfunction!(epsilon, m)?)?;
     m.add("ENGINE_VERSION", ceworld::VERSION)?;
     Ok(())
 }

@@ -193,10 +193,7 @@ impl PolicyFile {
     /// The file of an optimisation's best policy, with its provenance (SPEC §6).
     pub fn from_result<W: crate::World>(world: &W, result: &crate::CeResult, config: &crate::CeConfig) -> PolicyFile {
         let best = &result.history[result.best_iteration];
-        PolicyFile {
-            policy: result.policy.clone(),
-            world: world.to_json(),
-            provenance: json!({
+        let mut provenance = json!({
                 "seed": config.seed,
                 "samples": config.samples,
                 "rho": config.rho,
@@ -213,7 +210,10 @@ impl PolicyFile {
                 "stop": result.stop.as_str(),
                 "interrupted": result.interrupted(),
                 "version": crate::VERSION,
-            }),
+        });
+        if !result.restart_scores.is_empty() {
+            provenance["restart_scores"] = json!(result.restart_scores);
         }
+        PolicyFile { policy: result.policy.clone(), world: world.to_json(), provenance }
     }
 }

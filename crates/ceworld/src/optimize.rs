@@ -243,6 +243,9 @@ pub struct CeResult {
     pub seconds: f64,
     /// Which restart this is (0 for the run with the given seed).
     pub restart: usize,
+    /// With `restarts > 1`: every run's score on the selection episodes, in run order (the
+    /// returned run is the first with the highest); empty for a single run.
+    pub restart_scores: Vec<f64>,
 }
 
 impl CeResult {
@@ -288,6 +291,7 @@ pub fn optimize<W: World>(
     let started = Instant::now();
     let pool = thread_pool(config.threads)?;
     let mut best: Option<(f64, CeResult)> = None;
+    let mut scores = Vec::with_capacity(config.restarts);
     let mut interrupted = false;
     for restart in 0..config.restarts {
         let mut run = CeConfig { restarts: 1, ..config.clone() };
@@ -305,6 +309,7 @@ pub fn optimize<W: World>(
         result.restart = restart;
         interrupted |= result.interrupted();
         let score = pool.install(|| selection_mean(world, &result.policy, config.eval_episodes, config.seed))?;
+        scores.push(score);
         if best.as_ref().is_none_or(|(s, _)| score > *s) {
             best = Some((score, result));
         }
@@ -317,6 +322,7 @@ pub fn optimize<W: World>(
         result.stop = StopReason::Interrupted;
     }
     result.seconds = started.elapsed().as_secs_f64();
+    result.restart_scores = scores;
     Ok(result)
 }
 
@@ -474,6 +480,7 @@ fn optimize_once<W: World>(
         evaluation,
         seconds: started.elapsed().as_secs_f64(),
         restart: 0,
+        restart_scores: Vec::new(),
     })
 }
 

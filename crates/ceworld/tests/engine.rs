@@ -1,7 +1,7 @@
 //! The engine through its public API: sampling, counting, the CE update, stopping rules,
 //! determinism across thread counts, and policy files.
 
-use ceworld::episode::{count_episode, run_with};
+use ceworld::episode::{count_episode, run_recorded, run_with};
 use ceworld::rng::{EngineRng, Purpose, stream, stream_key};
 use ceworld::{
     CeConfig, Error, Flow, Hhmm, Layout, PolicyFile, StopReason, TargetTracking, World, optimize, random_policy,
@@ -572,5 +572,27 @@ fn restarts_choose_the_run_that_scores_best_on_selection_episodes() {
     assert!(runs[best].0 > runs[worst].0, "the runs must differ for the test to mean anything");
     let chosen = optimize(&world, start(), &CeConfig { restarts: 4, ..base.clone() }, |_| Flow::Continue).unwrap();
     assert_eq!(chosen.restart, best);
+    assert_eq!(chosen.restart_scores, runs.iter().map(|r| r.0).collect::<Vec<_>>());
     assert!(chosen.policy == runs[best].1);
+}
+
+#[test]
+fn recorded_episodes_match_visited_episodes_at_every_depth() {
+    // The optimiser samples through `run_recorded`, evaluation and rollouts through `run_with`:
+    // the same stream must give the same episode, step by step, whatever the number of levels.
+    let world = TargetTracking::with_params(ceworld::TrackingParams { horizon: 30, ..Default::default() }).unwrap();
+    for levels in [vec![3], vec![3, 2], vec![3, 2, 2], vec![2, 3, 2, 2]] {
+        let policy = random_policy(&world, &levels, 4).unwrap();
+        let width = policy.layout().record_width();
+        for k in 0..20 {
+            let mut record = vec![0u16; 30 * width];
+            let recorded = run_recorded(&world, &policy, &mut stream(2, Purpose::Optimise, 0, k), &mut record);
+            let mut visited = Vec::new();
+            let reward = run_with(&world, &policy, &mut stream(2, Purpose::Optimise, 0, k), |_, y, d, m, _| {
+                visited.extend([y as u16, d as u16]);
+                visited.extend_from_slice(m);
+            });
+            assert_eq!((recorded, &record), (reward, &visited), "levels {levels:?}, episode {k}");
+        }
+    }
 }
