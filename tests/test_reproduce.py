@@ -41,7 +41,8 @@ def test_quick_run_writes_one_jsonl_line_per_job(quick):
         assert r["iterations"] == 5 and r["stop_reason"] == "max_iterations"
         assert r["eval_episodes"] == 200 and 0 <= r["mean"] <= 100
         assert (out / r["policy"]).stat().st_size > 0
-        assert (out / r["history"]).stat().st_size > 0
+        assert set(r["history"]) == set(reproduce.HISTORY_KEYS) and len(r["history"]["mean"]) == 5
+        assert r["commit"]
     assert f"[{QUICK_JOBS}/{QUICK_JOBS}]" in done.stdout
 
 
@@ -141,3 +142,57 @@ def test_worker_processes_give_the_same_results(quick, tmp_path):
         (key(r), r["mean"], r["best_iteration"]) for r in serial
     ]
     assert all(r["threads"] == 1 for r in parallel)
+
+
+def test_report_only_without_data_is_an_error(tmp_path, capsys):
+    code = reproduce.main(["--quick", "--out-dir", str(tmp_path), "--report-only", "--no-figures"])
+    assert code == 2
+    assert "no finished job" in capsys.readouterr().err
+    assert not (tmp_path / "results.md").exists()
+
+
+def test_changed_preset_settings_run_again(tmp_path, monkeypatch):
+    args = ["--quick", "--out-dir", str(tmp_path), "--rows", "c3-16-weak", "--seeds", "1", "--no-figures"]
+    assert reproduce.main(args) == 0
+    # The same preset name with other settings: the old record is not reused, nor reported.
+    quick = {**reproduce.SETTINGS["quick"], "*": {**reproduce.SETTINGS["quick"]["*"], "samples": 120}}
+    monkeypatch.setitem(reproduce.SETTINGS, "quick", quick)
+    assert reproduce.main(args) == 0
+    records = reproduce.read_records(tmp_path / "reproduce.jsonl")
+    assert [r["kwargs"]["samples"] for r in records] == [100, 120]
+    doc = json.loads((tmp_path / "results.json").read_text())
+    assert [r["kwargs"]["samples"] for r in doc["rows"][0]["runs"]] == [120]
+
+
+def test_check_compares_the_report_with_the_data(tmp_path, capsys):
+    out = tmp_path
+    assert reproduce.main(["--quick", "--out-dir", str(out), "--rows", "c3-16-weak", "--seeds", "1"]) == 0
+    args = ["--quick", "--out-dir", str(out), "--rows", "c3-16-weak", "--report-only", "--check"]
+    assert reproduce.main(args) == 0
+    report = out / "results.md"
+    report.write_text(report.read_text().replace("c3-16-weak", "c3-16-weak (edited)"))
+    assert reproduce.main(args) == 1
+    assert "is not what" in capsys.readouterr().err
+
+
+def test_report_only_replays_a_job_whose_policy_is_gone(tmp_path, capsys):
+    args = ["--quick", "--out-dir", str(tmp_path), "--rows", "c3-16x16-weak", "--seeds", "1", "--no-figures"]
+    assert reproduce.main(args) == 0
+    (record,) = reproduce.read_records(tmp_path / "reproduce.jsonl")
+    saved = (tmp_path / record["policy"]).read_text()
+    (tmp_path / record["policy"]).unlink()
+    img = tmp_path / "img"
+    assert reproduce.main([*args[:-1], "--report-only", "--img-dir", str(img)]) == 0
+    err = capsys.readouterr().err
+    assert "replaying c3-16x16-weak seed 0" in err and "warning" not in err
+    # The replay gives the same policy, bit for bit (its provenance holds the same numbers).
+    assert json.loads((tmp_path / record["policy"]).read_text())["policy"] == json.loads(saved)["policy"]
+    for name in reproduce.planned_figures(
+        reproduce.aggregate(
+            [record],
+            reproduce.select_rows(["c3-16x16-weak"]),
+            "quick",
+            {"c3-16x16-weak": reproduce.kwargs_key(record["kwargs"])},
+        )
+    ):
+        assert (img / f"{name}.png").stat().st_size > 1000, name

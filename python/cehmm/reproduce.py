@@ -1,9 +1,13 @@
 """Reproduces the paper's results table (SPEC §5, Q-learning rows excepted) and writes a report.
 
 Every row of the table is run over several seeds; each (row, seed, settings) job optimises a
-policy, evaluates it on fresh episodes and appends one line to a JSON-lines file, so that a run
-can be stopped (Ctrl-C) and resumed. From that file come ``results.json``, ``results.csv``, a
-markdown report (``docs/results.md`` by default) and its figures (``docs/img/``).
+policy, evaluates it on fresh episodes and appends one line to a JSON-lines file (the data, by
+default ``docs/data/reproduce.jsonl``, committed), so that a run can be stopped (Ctrl-C) and
+resumed. A job is identified by its row, seed, settings label *and* the exact keyword arguments
+it ran with: a preset whose settings change runs again. From the data come ``results.json``,
+``results.csv``, a markdown report (``docs/results.md`` by default) and its figures
+(``docs/img/``); ``--report-only`` rebuilds them from the data alone (a figure that needs a
+policy no longer on disk replays its job, which is deterministic).
 
 Usage::
 
@@ -12,6 +16,7 @@ Usage::
     cehmm reproduce --rows 'c3-*-strong'           # a subset of rows (ids or glob patterns)
     cehmm reproduce --set smoothing=0.7            # any optimize() keyword, for every row
     cehmm reproduce --report-only                  # rebuild the outputs from the JSONL only
+    cehmm reproduce --report-only --check          # exit 1 if docs/results.md is not what the data gives
     cehmm reproduce --quick --out-dir /tmp/q       # a seconds-long smoke run
 
 Rows (:data:`ROWS`) and settings presets (:data:`SETTINGS`) are plain data: a new preset is a new
@@ -33,6 +38,7 @@ import platform
 import re
 import shlex
 import signal
+import subprocess
 import sys
 import time
 from collections.abc import Sequence
@@ -159,6 +165,7 @@ RECORD_KEYS = (
     "threads",
     "policy",
     "history",
+    "commit",
     "finished",
     "run",
     "command",
@@ -167,6 +174,10 @@ RECORD_KEYS = (
 )
 
 JSONL_NAME = "reproduce.jsonl"
+#: Where the data the committed reports are built from lives (relative to the working directory).
+DEFAULT_DATA = Path("docs") / "data" / JSONL_NAME
+#: Per-iteration statistics kept in each record (rounded: they are for the learning-curve figure).
+HISTORY_KEYS = ("mean", "elite_threshold", "best")
 
 
 # -- rows and settings -----------------------------------------------------------------------------
@@ -229,6 +240,18 @@ def settings_label(name: str, extra: dict[str, Any]) -> str:
     return "+".join(parts)
 
 
+def kwargs_key(kwargs: dict[str, Any]) -> str:
+    """The keyword arguments of a job as canonical JSON: part of the job's identity."""
+    return json.dumps(kwargs, sort_keys=True, separators=(",", ":"))
+
+
+def expected_kwargs(
+    rows: list[dict[str, Any]], preset: dict[str, dict[str, Any]], extra: dict[str, Any]
+) -> dict[str, str]:
+    """Row id -> the canonical keyword arguments its jobs must have run with."""
+    return {row["id"]: kwargs_key(job_kwargs(row, preset, extra)) for row in rows}
+
+
 def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
@@ -259,6 +282,34 @@ def machine_info() -> dict[str, Any]:
 
 
 # -- one job ---------------------------------------------------------------------------------------
+
+
+def source_commit() -> str:
+    """The git commit of the code that runs (``-dirty`` when tracked files differ from it), or
+    ``"unknown"`` outside a git checkout."""
+    root = Path(__file__).resolve().parents[2]
+    try:
+        head = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "--short=12", "HEAD"], capture_output=True, text=True, timeout=10
+        )
+        if head.returncode != 0:
+            return "unknown"
+        dirty = subprocess.run(
+            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+        return head.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def compact_history(history: dict[str, np.ndarray]) -> dict[str, list[float]]:
+    """The per-iteration statistics a record keeps (4 decimals: a mean over N >= 100 episodes of a
+    whole-number reward needs no more for a figure)."""
+    return {k: [round(float(x), 4) for x in history[k]] for k in HISTORY_KEYS}
+
 
 _IN_JOB = False
 _STOPPING = False
@@ -293,7 +344,7 @@ def _worker_init() -> None:
 def run_job(job: dict[str, Any]) -> dict[str, Any]:
     """Runs one (row, seed, settings) job and returns its JSONL record, or ``{"interrupted": True}``.
 
-    Writes the policy (SPEC §6 JSON) and the history (npz) under ``job["out_dir"]``.
+    Writes the policy (SPEC §6 JSON) under ``job["out_dir"]``; the record holds the history.
     """
     global _IN_JOB, _STOPPING
     import cehmm
@@ -310,13 +361,8 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
         out_dir = Path(job["out_dir"])
         stem = job_stem(job["row"], job["settings"], job["seed"])
         policy_path = Path("policies") / f"{stem}.json"
-        history_path = Path("histories") / f"{stem}.npz"
         (out_dir / "policies").mkdir(parents=True, exist_ok=True)
-        (out_dir / "histories").mkdir(parents=True, exist_ok=True)
         result.policy.save(out_dir / policy_path)
-        tmp = out_dir / "histories" / f".{stem}.tmp.npz"
-        np.savez_compressed(tmp, **{k: np.asarray(v) for k, v in result.history.items()})
-        os.replace(tmp, out_dir / history_path)
     except KeyboardInterrupt:
         return {"interrupted": True}
     except BaseException as e:  # a pyo3 panic is a BaseException; reported by the parent, which goes on
@@ -348,7 +394,8 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
         "seconds": round(seconds, 3),
         "threads": job["threads"] or (os.cpu_count() or 1),
         "policy": policy_path.as_posix(),
-        "history": history_path.as_posix(),
+        "history": compact_history(result.history),
+        "commit": job["commit"],
         "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "run": job["run"],
         "command": job["command"],
@@ -528,12 +575,24 @@ def status_text(ours: float, paper: float) -> str:
     return f"below paper by {gap:.1f} ({100.0 * gap / PAPER_BEST:.1f} pp)"
 
 
-def aggregate(records: list[dict[str, Any]], rows: list[dict[str, Any]], settings: str) -> list[dict[str, Any]]:
-    """One summary per row (rows without any finished job are left out), runs sorted by seed."""
+def aggregate(
+    records: list[dict[str, Any]], rows: list[dict[str, Any]], settings: str, kwargs: dict[str, str]
+) -> list[dict[str, Any]]:
+    """One summary per row (rows without any finished job are left out), runs sorted by seed.
+
+    Only the records of ``settings`` whose keyword arguments are ``kwargs[row]`` (see
+    :func:`expected_kwargs`) count: a record made with other settings under the same label is stale.
+    """
     out = []
     for row in rows:
         runs = sorted(
-            (r for r in records if r.get("row") == row["id"] and r.get("settings") == settings),
+            (
+                r
+                for r in records
+                if r.get("row") == row["id"]
+                and r.get("settings") == settings
+                and kwargs_key(r.get("kwargs", {})) == kwargs[row["id"]]
+            ),
             key=lambda r: r["seed"],
         )
         # The last line of a (row, seed) wins, should a job have been recorded twice.
@@ -566,6 +625,7 @@ def aggregate(records: list[dict[str, Any]], rows: list[dict[str, Any]], setting
                 "iterations_mean": float(np.mean([r["iterations"] for r in runs])),
                 "seconds_mean": float(np.mean([r["seconds"] for r in runs])),
                 "status": status_text(mean, row["paper_reward"]),
+                "commits": sorted({r.get("commit", "unknown") for r in runs}),
                 "note": row["note"],
                 "runs": runs,
             }
@@ -742,20 +802,21 @@ def render_report(
     add("")
     add(
         "| row | model | criterion | paper | paper % | ours (mean ± std over seeds) | ours % | seeds | iterations "
-        "| wall (s) | status |"
+        "| wall (s) | status | commit |"
     )
-    add("|---|---|---|---|---|---|---|---|---|---|---|")
+    add("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for s in summary:
         add(
             f"| `{s['row']}` | {model_text(s)} | {s['criterion']} | {s['paper_text']} | {s['paper_percent']:.0f} % | "
             f"{_pm(s['mean'], s['std'])} | {_pm(s['percent'], s['percent_std'], 1)} % | {s['seeds']} | "
-            f"{s['iterations_mean']:.0f} | {s['seconds_mean']:.1f} | {s['status']} |"
+            f"{s['iterations_mean']:.0f} | {s['seconds_mean']:.1f} | {s['status']} | {', '.join(s['commits'])} |"
         )
     add("")
     add(
         "*paper*: the paper's reward (case 1, case 2) or 69 × its percentage (case 3); *iterations* and "
         "*wall* are means over seeds, wall time per job including the evaluation. *status* compares the "
-        "mean over seeds with the paper's figure (pp: percentage points of 69)."
+        "mean over seeds with the paper's figure (pp: percentage points of 69). *commit*: the code that "
+        "ran the row's jobs (`-dirty`: with uncommitted changes)."
     )
     notes = [s for s in summary if s["note"]]
     if notes:
@@ -819,8 +880,43 @@ def render_report(
 # -- figures ---------------------------------------------------------------------------------------
 
 
+def planned_figures(summary: list[dict[str, Any]]) -> list[str]:
+    """The figures a report of ``summary`` shows: decided by the data alone, so that the report's
+    text does not depend on whether they were (re)drawn this time."""
+    case3 = [s for s in summary if s["case"] == 3]
+    names = ["summary"] if summary else []
+    if case3:
+        names += ["learning_curves", "trajectory"]
+    if any(len(s["levels"]) >= 2 for s in case3):
+        names.append("memory")
+    return names
+
+
+def job_policy(run: dict[str, Any], out_dir: Path) -> Any:
+    """The policy of a finished job: its file under ``out_dir``, or else the job replayed (it is
+    deterministic: same seed and settings, same policy whatever the thread count)."""
+    import cehmm
+
+    path = out_dir / run["policy"]
+    if path.exists():
+        return cehmm.Policy.load(path)
+    print(f"replaying {run['row']} seed {run['seed']} for its policy ({path} is not here)", file=sys.stderr, flush=True)
+    result = cehmm.optimize(cehmm.TargetTracking(case=run["case"]), seed=run["seed"], progress=False, **run["kwargs"])
+    if result.evaluation.mean != run["mean"]:
+        print(
+            f"warning: the replay of {run['row']} seed {run['seed']} evaluates to {result.evaluation.mean}, the record "
+            f"says {run['mean']} (recorded at commit {run.get('commit', 'unknown')})",
+            file=sys.stderr,
+            flush=True,
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    result.policy.save(path)
+    return result.policy
+
+
 def make_figures(summary: list[dict[str, Any]], out_dir: Path, img_dir: Path, rollouts: int = 1000) -> dict[str, Path]:
-    """Writes the PNG figures; returns {name: path}. Needs matplotlib (warns and skips without it)."""
+    """Draws the figures of :func:`planned_figures` as PNG files; returns {name: path}. Needs
+    matplotlib (warns and draws nothing without it)."""
     try:
         import matplotlib  # noqa: F401
     except ImportError:
@@ -830,6 +926,7 @@ def make_figures(summary: list[dict[str, Any]], out_dir: Path, img_dir: Path, ro
 
     from . import plots
 
+    planned = planned_figures(summary)
     img_dir.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
 
@@ -840,18 +937,16 @@ def make_figures(summary: list[dict[str, Any]], out_dir: Path, img_dir: Path, ro
         os.replace(tmp, path)
         written[name] = path
 
-    if not summary:
-        return written
-    save("summary", plots.summary_bars(summary, paper_best=PAPER_BEST))
+    if "summary" in planned:
+        save("summary", plots.summary_bars(summary, paper_best=PAPER_BEST))
 
     case3 = [s for s in summary if s["case"] == 3]
-    curves = []
-    for s in case3:
-        run = min(s["runs"], key=lambda r: r["seed"])
-        hist_path = out_dir / run["history"]
-        if hist_path.exists():
-            with np.load(hist_path) as h:
-                history = {k: h[k] for k in h.files}
+    if "learning_curves" in planned:
+        curves = []
+        for s in case3:
+            run = min(s["runs"], key=lambda r: r["seed"])
+            history = {k: np.asarray(v) for k, v in run["history"].items()}
+            history["iteration"] = np.arange(len(history["mean"]))
             curves.append(
                 {
                     "title": f"{model_text(s)}, {s['criterion']} (seed {run['seed']})",
@@ -860,26 +955,20 @@ def make_figures(summary: list[dict[str, Any]], out_dir: Path, img_dir: Path, ro
                     "best_iteration": run["best_iteration"],
                 }
             )
-    if curves:
         save("learning_curves", plots.learning_curves(curves))
 
-    def best_policy(candidates: list[dict[str, Any]]) -> tuple[Any, dict[str, Any]] | None:
-        runs = [(r, s) for s in candidates for r in s["runs"] if (out_dir / r["policy"]).exists()]
-        if not runs:
-            return None
-        r, s = max(runs, key=lambda rs: rs[0]["mean"])
-        return cehmm.Policy.load(out_dir / r["policy"]), {**r, "title": f"{model_text(s)}, {s['criterion']}"}
+    def best_policy(candidates: list[dict[str, Any]]) -> tuple[Any, dict[str, Any]]:
+        r, s = max(((r, s) for s in candidates for r in s["runs"]), key=lambda rs: rs[0]["mean"])
+        return job_policy(r, out_dir), {**r, "title": f"{model_text(s)}, {s['criterion']}"}
 
     world = cehmm.TargetTracking(case=3)
-    best = best_policy(case3)
-    if best is not None:
-        policy, run = best
+    if "trajectory" in planned:
+        policy, run = best_policy(case3)
         title = f"{run['title']}, seed {run['seed']} (evaluated mean {run['mean']:.1f})"
         save("trajectory", plots.trajectory(policy, world, title=title))
-    two_level = [s for s in case3 if list(s["levels"]) == [16, 16]] or [s for s in case3 if len(s["levels"]) >= 2]
-    best = best_policy(two_level)
-    if best is not None:
-        policy, run = best
+    if "memory" in planned:
+        two_level = [s for s in case3 if list(s["levels"]) == [16, 16]] or [s for s in case3 if len(s["levels"]) >= 2]
+        policy, run = best_policy(two_level)
         title = f"{run['title']}, seed {run['seed']} (evaluated mean {run['mean']:.1f})"
         save("memory", plots.memory_heatmap(policy, world, episodes=rollouts, title=title))
     return written
@@ -896,6 +985,7 @@ def regenerate_command(args: argparse.Namespace) -> str:
     if args.out_dir != Path("results"):
         parts.append(f"--out-dir {shlex.quote(str(args.out_dir))}")
     for flag, value in (
+        ("--data", args.data),
         ("--report", args.report),
         ("--img-dir", args.img_dir),
         ("--findings", args.findings),
@@ -958,8 +1048,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--threads", type=int, default=None, help="engine threads per job (default: every core with --jobs 1, else 1)"
     )
     p.add_argument(
-        "--out-dir", type=Path, default=Path("results"), help="JSONL, results.json/csv, policies/, histories/"
+        "--data",
+        type=Path,
+        default=None,
+        help=f"the JSON-lines data, one line per finished job (default {DEFAULT_DATA}; OUT_DIR/{JSONL_NAME} "
+        "with --quick)",
     )
+    p.add_argument("--out-dir", type=Path, default=Path("results"), help="results.json/csv and the jobs' policies/")
     p.add_argument(
         "--report",
         type=Path,
@@ -985,7 +1080,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--report-only",
         action="store_true",
-        help="run nothing: rebuild results.json/csv, the report and the figures from the JSONL",
+        help="run nothing: rebuild results.json/csv, the report and the figures from the data (an error if the "
+        "data has no finished job for these rows and settings)",
+    )
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="with --report-only: write nothing, exit 1 if the report on disk differs from the one the data gives",
     )
     p.add_argument(
         "--quick",
@@ -1020,28 +1121,35 @@ def main(argv: Sequence[str] | None = None) -> int:
     findings: Path = args.findings or report_path.parent / "findings.md"
     rollouts = args.rollouts or (200 if args.quick else 1000)
 
+    if args.check and not args.report_only:
+        raise SystemExit("--check goes with --report-only")
     rows = select_rows(args.rows)
     name, preset = load_preset(args.settings)
     extra = parse_set(args.overrides)
     label = settings_label(name, extra)
     if args.eval_episodes is not None:
         extra["eval_episodes"] = args.eval_episodes
-    jsonl = out_dir / JSONL_NAME
+    identity = expected_kwargs(rows, preset, extra)
+    jsonl: Path = args.data or (out_dir / JSONL_NAME if args.quick else DEFAULT_DATA)
     n_jobs = max(1, args.jobs)
     total_start = time.perf_counter()
 
     interrupted = False
     failed = 0
     if not args.report_only:
-        done = {(r.get("row"), r.get("seed"), r.get("settings")) for r in read_records(jsonl)}
+        done = {
+            (r.get("row"), r.get("seed"), r.get("settings"), kwargs_key(r.get("kwargs", {})))
+            for r in read_records(jsonl)
+        }
         machine = machine_info()
+        commit = source_commit()
         run_id = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
         threads = args.threads if args.threads is not None else (None if n_jobs == 1 else 1)
         show_engine = n_jobs == 1 and not args.no_progress and sys.stderr.isatty()
         jobs = []
         for seed in range(args.seeds):  # seed-major: every row gets a first result early
             for row in rows:
-                if (row["id"], seed, label) in done:
+                if (row["id"], seed, label, identity[row["id"]]) in done:
                     continue
                 jobs.append(
                     {
@@ -1056,6 +1164,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         "run": run_id,
                         "command": command,
                         "machine": machine,
+                        "commit": commit,
                     }
                 )
         skipped = len(rows) * args.seeds - len(jobs)
@@ -1079,7 +1188,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"{failed} job(s) failed:\n  " + "\n  ".join(outcome.failed), file=sys.stderr, flush=True)
 
     records = read_records(jsonl)
-    summary = aggregate(records, rows, label)
+    summary = aggregate(records, rows, label, identity)
+    if args.report_only and not summary:
+        print(
+            f"cehmm reproduce: error: {jsonl} has no finished job of settings {label!r} for the rows asked "
+            "(with these settings' keyword arguments); run without --report-only first",
+            file=sys.stderr,
+        )
+        return 2
     used = [r for s in summary for r in s["runs"]]
     meta = {
         "generated": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
@@ -1088,13 +1204,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         "command": command,
         **run_stats(used),
     }
-    write_tables(summary, meta, out_dir)
-    figures = {} if args.no_figures else make_figures(summary, out_dir, img_dir, rollouts=rollouts)
+    figures = {name: img_dir / f"{name}.png" for name in planned_figures(summary)}
     text = render_report(summary, used, label, report_path, figures, findings, regen, rollouts)
+    if args.check:
+        current = report_path.read_text() if report_path.exists() else None
+        if current != text:
+            print(f"{report_path} is not what {jsonl} gives: run {regen}", file=sys.stderr)
+            return 1
+        print(f"{report_path} is what {jsonl} gives")
+        return 0
+    write_tables(summary, meta, out_dir)
+    drawn = {} if args.no_figures else make_figures(summary, out_dir, img_dir, rollouts=rollouts)
     _write_text(report_path, text)
     print(
         f"wrote {out_dir / 'results.json'}, {out_dir / 'results.csv'}, {report_path}"
-        + (f" and {len(figures)} figure(s) in {img_dir}" if figures else "")
+        + (f" and {len(drawn)} figure(s) in {img_dir}" if drawn else "")
         + f" ({_fmt_duration(time.perf_counter() - total_start)})",
         flush=True,
     )
