@@ -498,3 +498,33 @@ pub fn clock_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
 pub fn random_policy<W: World>(world: &W, levels: &[usize], seed: u64) -> Result<Hhmm> {
     Hhmm::random(world.n_observations(), world.n_decisions(), levels, &mut stream(seed, Purpose::Init, 0, 0))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn memory_update_names_round_trip_and_unknown_names_are_refused() {
+        for m in [MemoryUpdate::Sampled, MemoryUpdate::ForwardBackward] {
+            assert_eq!(m.as_str().parse::<MemoryUpdate>().unwrap(), m);
+        }
+        assert_eq!(MemoryUpdate::ForwardBackward.as_str(), "forward-backward");
+        let e = "viterbi".parse::<MemoryUpdate>().unwrap_err().to_string();
+        assert!(e.contains("memory_update") && e.contains("viterbi"), "{e}");
+    }
+
+    #[test]
+    fn stop_reasons_have_snake_case_names() {
+        let names: Vec<_> = [
+            StopReason::Patience,
+            StopReason::MaxIterations,
+            StopReason::TimeLimit,
+            StopReason::Target,
+            StopReason::Interrupted,
+        ]
+        .iter()
+        .map(|s| s.as_str())
+        .collect();
+        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted"]);
+    }
+}
