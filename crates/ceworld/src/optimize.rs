@@ -300,10 +300,11 @@ pub fn optimize<W: World>(
         }
         if let Some(limit) = config.time_limit {
             let left = limit - started.elapsed().as_secs_f64();
-            if left <= 0.0 {
+            if left <= 0.0 && restart > 0 {
                 break;
             }
-            run.time_limit = Some(left);
+            // The first run always runs (at least one iteration), however little time is left.
+            run.time_limit = Some(left.max(f64::MIN_POSITIVE));
         }
         let mut result = optimize_once(world, initial.clone(), &run, &mut observer)?;
         result.restart = restart;

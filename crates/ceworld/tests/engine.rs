@@ -596,3 +596,33 @@ fn recorded_episodes_match_visited_episodes_at_every_depth() {
         }
     }
 }
+
+#[test]
+fn restarts_share_the_time_limit_stop_on_interruption_and_keep_the_first_of_equal_scores() {
+    let world = Sum { horizon: 2, n_obs: 1, n_decisions: 2 };
+    let start = || uniform_policy(&world, &[1]).unwrap();
+    let runs_of = |config: &CeConfig, stop_at: Option<usize>| {
+        let (mut runs, mut calls) = (0, 0);
+        let r = optimize(&world, start(), config, |record| {
+            runs += (record.iteration == 0) as usize;
+            calls += 1;
+            if Some(calls) == stop_at { Flow::Stop } else { Flow::Continue }
+        })
+        .unwrap();
+        (r, runs)
+    };
+    let config = CeConfig { restarts: 3, ..small(200, 3) };
+    // A generous limit lets every run happen; a spent one stops after the first.
+    let (_, runs) = runs_of(&CeConfig { time_limit: Some(600.0), ..config.clone() }, None);
+    assert_eq!(runs, 3);
+    let (r, runs) = runs_of(&CeConfig { time_limit: Some(1e-9), max_iterations: None, ..config.clone() }, None);
+    assert_eq!((runs, r.history.len(), r.stop), (1, 1, StopReason::TimeLimit));
+    // Ctrl-C during the second run: no third run, and the result says interrupted.
+    let (r, runs) = runs_of(&config, Some(4));
+    assert_eq!(runs, 2);
+    assert!(r.interrupted());
+    // Every run converges to "always 1" (V = 2): equal scores, so the first run is kept.
+    let (r, _) = runs_of(&CeConfig { max_iterations: Some(5), ..config }, None);
+    assert_eq!(r.restart_scores, vec![2.0; 3]);
+    assert_eq!(r.restart, 0);
+}
