@@ -1,6 +1,6 @@
 """Times cehmm.optimize (Rust engine) against the plain numpy version in benches/numpy_ce.py.
 
-Both run the same algorithm (SPEC §2–4) on the target-tracking world, case 3, N = 1000,
+Both run the same algorithm (model §2–4) on the target-tracking world, case 3, N = 1000,
 rho = 0.5, alpha = 1, for a fixed number of iterations (patience set out of reach). Speed is
 reported as episode-steps per second, iterations × N × T / seconds, where seconds are those of the
 iterations themselves (cehmm's ``history["seconds"]``, which leaves out the final evaluation), for

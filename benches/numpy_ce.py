@@ -1,10 +1,10 @@
 """A plain numpy implementation of the cehmm algorithm, for comparison with the Rust engine.
 
-Same algorithm as ``cehmm.optimize`` (SPEC §2–4), written independently from the spec:
+Same algorithm as ``cehmm.optimize`` (model §2–4), written independently from the spec:
 
-* the target-tracking world of SPEC §4 (cases 1–3, every constant a parameter),
-* the hierarchical HMM policy of SPEC §2 with any number of levels (top-down sampling),
-* Rubinstein's cross-entropy loop of SPEC §3 (elite ``ceil(rho·N)`` with random tie-breaks,
+* the target-tracking world of model §4 (cases 1–3, every constant a parameter),
+* the hierarchical HMM policy of model §2 with any number of levels (top-down sampling),
+* Rubinstein's cross-entropy loop of model §3 (elite ``ceil(rho·N)`` with random tie-breaks,
   count refit, rows without counts kept, smoothing, patience stopping rule).
 
 The N episodes of one iteration are simulated together: every world and policy quantity is an
@@ -45,13 +45,13 @@ TURN = np.array([-1, 1, 0, 0])
 
 
 # --------------------------------------------------------------------------------------------
-# The world (SPEC §4)
+# The world (model §4)
 # --------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
 class Tracking:
-    """The target-tracking world; the defaults are SPEC §4's."""
+    """The target-tracking world; the defaults are model §4's."""
 
     case: int = 3
     width: int = 20
@@ -152,14 +152,14 @@ class Tracking:
 
 
 # --------------------------------------------------------------------------------------------
-# The policy (SPEC §2)
+# The policy (model §2)
 # --------------------------------------------------------------------------------------------
 
 
 class Hhmm:
     """An HHMM policy: ``h0 (M1, D)``, ``h1 (Y, U1, M1)``, then per level l = 2..Λ
     ``start (U_l, M_l)`` and ``step (M_{l-1}, U_l, M_l)``, with ``U_l = |M_{l+1}|`` or 1 at the top
-    (the layout of the SPEC §6 policy file)."""
+    (the layout of the model §6 policy file)."""
 
     def __init__(self, n_obs: int, n_actions: int, levels: Sequence[int]) -> None:
         self.levels = [int(m) for m in levels]
@@ -220,7 +220,7 @@ class Batch:
 
 
 def run_episodes(world: Tracking, policy: Hhmm, n: int, rng: np.random.Generator) -> Batch:
-    """Draws ``n`` episodes of world × policy (SPEC §4 step order, SPEC §2 top-down sampling)."""
+    """Draws ``n`` episodes of world × policy (model §4 step order, model §2 top-down sampling)."""
     horizon, depth = world.horizon, len(policy.levels)
     cum = policy.cumulated()
     s = world.reset(n, rng)
@@ -281,7 +281,7 @@ def update(policy: Hhmm, counts: list[np.ndarray], smoothing: float) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# The cross-entropy loop (SPEC §3)
+# The cross-entropy loop (model §3)
 # --------------------------------------------------------------------------------------------
 
 

@@ -1,4 +1,4 @@
-"""The cross-entropy optimiser (SPEC §3) through ``cehmm.optimize``."""
+"""The cross-entropy optimiser (model §3) through ``cehmm.optimize``."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Policies: tables as numpy arrays, policy files (SPEC §6), construction from tables."""
+"""Policies: tables as numpy arrays, policy files (model §6), construction from tables."""
 
 from __future__ import annotations
 

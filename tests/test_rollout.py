@@ -1,4 +1,4 @@
-"""Rollouts: one recorded episode, checked against the world's rules (SPEC §4)."""
+"""Rollouts: one recorded episode, checked against the world's rules (model §4)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def chebyshev(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def move(i: int, j: int, heading: int, action: int) -> tuple[int, int, int]:
-    """SPEC §4: 0 turn left, 1 turn right, 2 forward (stay if off the grid), 3 no move."""
+    """model §4: 0 turn left, 1 turn right, 2 forward (stay if off the grid), 3 no move."""
     if action == 0:
         return i, j, (heading - 1) % 4
     if action == 1:

@@ -1,4 +1,4 @@
-"""The target-tracking world as seen from Python (SPEC §4)."""
+"""The target-tracking world as seen from Python (model §4)."""
 
 from __future__ import annotations
 

@@ -73,7 +73,7 @@ class OptimizeDict(TypedDict):
     seconds: float
 
 class TargetTracking:
-    """``ceworld::TargetTracking``: the world of SPEC §4."""
+    """``ceworld::TargetTracking``: the world of model §4."""
 
     def __init__(self, case: int | None = None, **params: int | list[int] | tuple[int, int]) -> None: ...
     @property
@@ -91,7 +91,7 @@ class TargetTracking:
     def optimum(self) -> int: ...
 
 class Policy:
-    """``ceworld::PolicyFile``: an HHMM policy with its world and provenance (SPEC §6)."""
+    """``ceworld::PolicyFile``: an HHMM policy with its world and provenance (model §6)."""
 
     @staticmethod
     def uniform(world: TargetTracking, levels: list[int]) -> Policy: ...

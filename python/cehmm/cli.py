@@ -12,7 +12,7 @@ from collections.abc import Sequence
 USAGE = """usage: cehmm SUBCOMMAND [ARGS...]
 
 subcommands:
-  reproduce   reproduce the paper's results table (SPEC §5) and write the report
+  reproduce   reproduce the paper's results table (model §5) and write the report
               (cehmm reproduce --help for its options)
 """
 

@@ -1,4 +1,4 @@
-"""The cross-entropy optimiser (SPEC §3): :func:`optimize` and its :class:`OptimizeResult`."""
+"""The cross-entropy optimiser (model §3): :func:`optimize` and its :class:`OptimizeResult`."""
 
 from __future__ import annotations
 
@@ -83,7 +83,7 @@ def optimize(
     memory_update: str = "sampled",
     restarts: int = 1,
 ) -> OptimizeResult:
-    """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (SPEC §3).
+    """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (model §3).
 
     Each iteration draws ``samples`` episodes, keeps the best ``ceil(rho · samples)`` and refits
     every table to them (``h := smoothing · new + (1 − smoothing) · h``). The same seed and

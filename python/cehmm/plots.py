@@ -241,7 +241,7 @@ def trajectory(
     # Room beyond the grid's border for the labels of its edge cells.
     pad = lambda at_edge: 0.5 + (0.9 if at_edge else 0.0)  # noqa: E731
     ax.set_xlim(i0 - pad(i0 == 0), i1 + pad(i1 == width - 1))
-    ax.set_ylim(j1 + pad(j1 == height - 1), j0 - pad(j0 == 0))  # j grows downwards (SPEC §4)
+    ax.set_ylim(j1 + pad(j1 == height - 1), j0 - pad(j0 == 0))  # j grows downwards (model §4)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=3, fontsize=8, frameon=False)
     reward_stretch = int(sum(rewarded))
     ax.set_title(

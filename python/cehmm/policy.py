@@ -1,4 +1,4 @@
-"""HHMM policies (SPEC §2): tables as numpy arrays, policy files (SPEC §6), evaluation and rollouts."""
+"""HHMM policies (model §2): tables as numpy arrays, policy files (model §6), evaluation and rollouts."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ Tables = dict[str, Any]
 
 
 class Policy:
-    """A hierarchical HMM policy with input and output (SPEC §2), with its world and provenance.
+    """A hierarchical HMM policy with input and output (model §2), with its world and provenance.
 
     With levels ``[|M_1|, ..., |M_Λ|]`` (bottom first), ``Y`` observations and ``D`` decisions,
     the tables (:attr:`tables`, float64, every innermost row summing to 1) are:
@@ -111,7 +111,7 @@ class Policy:
 
     @classmethod
     def load(cls, path: PathLike) -> Policy:
-        """Reads and checks a policy file (JSON, SPEC §6).
+        """Reads and checks a policy file (JSON, model §6).
 
         Raises:
             PolicyFormatError: not a valid policy file; the message names the file, the table and
@@ -122,17 +122,17 @@ class Policy:
 
     @classmethod
     def from_json(cls, text: str) -> Policy:
-        """Reads and checks a policy document (SPEC §6) from its JSON text."""
+        """Reads and checks a policy document (model §6) from its JSON text."""
         if not isinstance(text, str):
             raise check.invalid("text", text, "a str of JSON")
         return cls(_core.Policy.from_json(text))
 
     def save(self, path: PathLike) -> None:
-        """Writes the policy file (JSON, SPEC §6), atomically (through a temporary file)."""
+        """Writes the policy file (JSON, model §6), atomically (through a temporary file)."""
         self._core.save(os.fspath(path))
 
     def to_json(self) -> str:
-        """The policy document (SPEC §6) as JSON text."""
+        """The policy document (model §6) as JSON text."""
         return self._core.to_json()
 
     # -- description ---------------------------------------------------------------------------
@@ -159,7 +159,7 @@ class Policy:
 
     @property
     def parameter_count(self) -> int:
-        """The paper's number of free parameters, start tables excluded (SPEC §2): 4320 for
+        """The paper's number of free parameters, start tables excluded (model §2): 4320 for
         levels ``[16, 16]`` with ``Y = D = 16``, 758 for ``[16, 2, 2, 2]``."""
         return self._core.parameter_count
 

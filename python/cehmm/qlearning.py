@@ -1,4 +1,4 @@
-"""Tabular Q-learning, the paper's baseline (SPEC §5, last rows), and the paper's comparison of
+"""Tabular Q-learning, the paper's baseline (model §5, last rows), and the paper's comparison of
 policies on 100-step windows.
 
 The learner sees the last observation and both mobiles' cells and headings (``16 × 1600 × 1600``

@@ -1,4 +1,4 @@
-"""The paper's example world: two slow mobiles tracking an evasive target on a grid (SPEC §4)."""
+"""The paper's example world: two slow mobiles tracking an evasive target on a grid (model §4)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ _DEFAULTS: dict[str, Any] = _core.TargetTracking().params
 
 
 class TargetTracking:
-    """The target-tracking world of the paper (section 5) under the conventions of SPEC §4.
+    """The target-tracking world of the paper (section 5) under the conventions of model §4.
 
     A ``width × height`` grid (20 × 20); mobiles B and C start in the bottom corners facing down
     and each turn left, turn right, move forward or stay (16 joint decisions); a step is rewarded

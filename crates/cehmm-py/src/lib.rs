@@ -41,7 +41,7 @@ create_exception!(
     cehmm,
     PolicyFormatError,
     CehmmError,
-    "A policy file or table that is not a valid cehmm policy (SPEC §6): wrong shape, negative or \
+    "A policy file or table that is not a valid cehmm policy (model §6): wrong shape, negative or \
      non-finite entry, row not summing to 1, bad JSON."
 );
 create_exception!(
@@ -122,7 +122,7 @@ fn param_value(key: &str, default: &Value, value: &Bound<'_, PyAny>) -> PyResult
     }
 }
 
-/// The target-tracking world of SPEC §4 (wrapped by `cehmm.TargetTracking`).
+/// The target-tracking world of model §4 (wrapped by `cehmm.TargetTracking`).
 #[pyclass(module = "cehmm._core", name = "TargetTracking", frozen)]
 struct PyTargetTracking {
     world: ceworld::TargetTracking,
@@ -335,25 +335,25 @@ impl PyPolicy {
         Ok(Self::new(policy, world, parse_object("provenance", provenance_json)?))
     }
 
-    /// Reads and checks a policy file (SPEC §6).
+    /// Reads and checks a policy file (model §6).
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Self> {
         Ok(PyPolicy { file: PolicyFile::load(path).map_err(raise)? })
     }
 
-    /// Reads and checks a policy document (SPEC §6) from its JSON text.
+    /// Reads and checks a policy document (model §6) from its JSON text.
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Self> {
         let doc: Value = serde_json::from_str(text).map_err(|e| raise(Error::format(format!("not JSON: {e}"))))?;
         Ok(PyPolicy { file: PolicyFile::from_json(&doc).map_err(raise)? })
     }
 
-    /// Writes the policy file (SPEC §6).
+    /// Writes the policy file (model §6).
     fn save(&self, path: PathBuf) -> PyResult<()> {
         self.file.save(path).map_err(raise)
     }
 
-    /// The policy document (SPEC §6) as JSON text.
+    /// The policy document (model §6) as JSON text.
     fn to_json(&self) -> String {
         self.file.to_json().to_string()
     }
@@ -395,7 +395,7 @@ impl PyPolicy {
     }
 
     /// `{"h0": array, "h1": array, "upper": [{"start": array, "step": array}, ...]}`, float64,
-    /// shapes as in SPEC §6.
+    /// shapes as in model §6.
     fn tables<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let h = &self.file.policy;
         let layout = h.layout();
@@ -524,7 +524,7 @@ impl Progress {
     }
 }
 
-/// Runs the cross-entropy method (SPEC §3) from `initial`; Ctrl-C stops it between iterations
+/// Runs the cross-entropy method (model §3) from `initial`; Ctrl-C stops it between iterations
 /// and the result comes back marked interrupted.
 #[pyfunction]
 #[pyo3(signature = (

@@ -66,7 +66,7 @@ where
 }
 
 /// Adds one recorded episode's (condition, outcome) pairs to `counts` (laid out as the
-/// policy's flat tables): the sufficient statistics of the CE update (SPEC §3).
+/// policy's flat tables): the sufficient statistics of the CE update (model §3).
 #[inline]
 pub fn count_episode(layout: &Layout, record: &[u16], counts: &mut [u32]) {
     let width = layout.record_width();

@@ -1,4 +1,4 @@
-//! Policy files: the JSON of SPEC §6 (`"format": "cehmm-policy", "version": 1`).
+//! Policy files: the JSON of model §6 (`"format": "cehmm-policy", "version": 1`).
 
 use std::path::Path;
 
@@ -91,7 +91,7 @@ impl PolicyFile {
         })
     }
 
-    /// Reads a document, checking format, version, shapes and every row (SPEC §6); unknown
+    /// Reads a document, checking format, version, shapes and every row (model §6); unknown
     /// keys are ignored.
     pub fn from_json(doc: &Value) -> Result<PolicyFile> {
         let obj = doc
@@ -190,7 +190,7 @@ fn show(v: Option<&Value>) -> String {
 }
 
 impl PolicyFile {
-    /// The file of an optimisation's best policy, with its provenance (SPEC §6).
+    /// The file of an optimisation's best policy, with its provenance (model §6).
     pub fn from_result<W: crate::World>(world: &W, result: &crate::CeResult, config: &crate::CeConfig) -> PolicyFile {
         let best = &result.history[result.best_iteration];
         let mut provenance = json!({

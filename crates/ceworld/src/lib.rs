@@ -4,7 +4,7 @@
 //! Dambreville, "Cross-Entropic Learning of a Machine for the Decision in a Partially
 //! Observable Universe". A policy is a hierarchical HMM with input (observation) and output
 //! (decision); its tables are optimised by Rubinstein's cross-entropy method. The conventions
-//! are those of the project's `SPEC.md`.
+//! are those of the project's model document, `docs/model.md`, cited as `model §N`.
 //!
 //! ```
 //! use ceworld::{CeConfig, TargetTracking, optimize, uniform_policy, Flow};

@@ -1,4 +1,4 @@
-//! Rubinstein's cross-entropy method over HHMM policies (SPEC §3).
+//! Rubinstein's cross-entropy method over HHMM policies (model §3).
 
 use std::time::Instant;
 
@@ -48,7 +48,7 @@ pub struct CeConfig {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MemoryUpdate {
-    /// Count the memory states that were sampled (SPEC §3, the paper).
+    /// Count the memory states that were sampled (model §3, the paper).
     #[default]
     Sampled,
     /// Count their posterior expectation given the episode's observations and decisions

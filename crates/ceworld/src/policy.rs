@@ -1,9 +1,9 @@
-//! The policy family: a hierarchical HMM with input and output (SPEC §2).
+//! The policy family: a hierarchical HMM with input and output (model §2).
 //!
 //! Every conditional table is a block of rows in one flat `Vec<f64>`; each row also has an
 //! alias table (Walker/Vose) so that a draw costs one random number and one or two reads,
 //! whatever the row's length. Table order: `h0`, `h1`, then for each level `l = 2..=Λ` its
-//! `start` and `step` tables. Row layouts follow the policy file (SPEC §6): `h0[m1]`,
+//! `start` and `step` tables. Row layouts follow the policy file (model §6): `h0[m1]`,
 //! `h1[y][u]`, `start[u]`, `step[p][u]` flattened row-major.
 
 use rand::{Rng, RngExt};
@@ -110,7 +110,7 @@ impl Layout {
         self.levels.len()
     }
 
-    /// The paper's count of free parameters, start tables excluded (SPEC §2).
+    /// The paper's count of free parameters, start tables excluded (model §2).
     pub fn parameter_count(&self) -> usize {
         let m = &self.levels;
         let upper = |l: usize| if l < m.len() { m[l] } else { 1 };
@@ -256,7 +256,7 @@ impl Hhmm {
         }
     }
 
-    /// The CE update (SPEC §3): each row with counts becomes `α·counts/total + (1 − α)·old`;
+    /// The CE update (model §3): each row with counts becomes `α·counts/total + (1 − α)·old`;
     /// rows without counts keep their values. `counts` is laid out as the tables. Rows are
     /// refitted in parallel (on the current rayon pool); each row's result is independent of
     /// the split, so the update is bit-identical whatever the number of threads.
@@ -315,7 +315,7 @@ impl Hhmm {
         if (x as u32) < entry.threshold { column } else { entry.alias as usize }
     }
 
-    /// One step of top-down sampling (SPEC §2). `memory[l - 1]` holds `m_l[t - 1]` on entry and
+    /// One step of top-down sampling (model §2). `memory[l - 1]` holds `m_l[t - 1]` on entry and
     /// `m_l[t]` on return; `first` marks `t = 1`, where the start tables are used. Returns `d_t`.
     #[inline]
     pub fn step(&self, y: usize, memory: &mut [u16], first: bool, rng: &mut EngineRng) -> usize {

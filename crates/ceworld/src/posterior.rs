@@ -2,7 +2,7 @@
 //! (forward–backward), an alternative to counting the memory states that were sampled.
 //!
 //! The reward depends on `(d, y, x)` only; the memory `m` is a means. Counting the sampled `m`
-//! (SPEC §3, the paper) fits the tables to one arbitrary explanation of each elite episode's
+//! (model §3, the paper) fits the tables to one arbitrary explanation of each elite episode's
 //! decisions; replacing those counts by their posterior expectation under the current policy,
 //! `E[counts | y, d]`, maximises the elite's likelihood of `d` given `y` with the memory
 //! marginalised (one EM step), so the memory can be re-assigned to whatever explains the good

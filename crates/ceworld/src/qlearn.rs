@@ -1,5 +1,5 @@
 //! Tabular Q-learning on a world whose state is known: the paper's baseline (section 5,
-//! "Comparison with the Q-learning"; SPEC §5, last two rows), and the evaluation of any policy
+//! "Comparison with the Q-learning"; model §5, last two rows), and the evaluation of any policy
 //! on 100-step windows of a continuing run, which is how the paper compares the two.
 //!
 //! # The task
@@ -8,7 +8,7 @@
 //! and both mobiles' cells and headings (`16 × 1600 × 1600` states on the 20 × 20 grid), and
 //! picks one of the `D = 16` joint decisions. The world is stepped forever (an infinite-horizon
 //! continuing task, never reset; the paper's `T = ∞`), each step paying 1 when it is an
-//! encounter (SPEC §4 (2)), with the update of Sutton and Barto:
+//! encounter (model §4 (2)), with the update of Sutton and Barto:
 //! `Q(s, a) += α (r + γ max_a' Q(s', a') − Q(s, a))`, `γ = 0.99`, `α = 0.1`.
 //!
 //! # Conventions the paper leaves open
@@ -68,7 +68,7 @@ use crate::world::World;
 pub const GAMMA: f64 = 0.99;
 /// The paper's learning rate `α`.
 pub const ALPHA: f64 = 0.1;
-/// The paper's best case-3 reward, the 100 % of its comparison table (SPEC §5).
+/// The paper's best case-3 reward, the 100 % of its comparison table (model §5).
 pub const PAPER_REFERENCE: f64 = 69.0;
 /// The `format` of a Q-table file's header.
 pub const FORMAT: &str = "cehmm-qtable";

@@ -1,5 +1,5 @@
 //! Random streams: every episode's generator is derived from (seed, purpose, iteration, index),
-//! so results never depend on how the work is split between threads (SPEC §3, reproducibility).
+//! so results never depend on how the work is split between threads (model §3, reproducibility).
 
 use rand::SeedableRng;
 use rand::rngs::Xoshiro256PlusPlus;

@@ -1,4 +1,4 @@
-//! The paper's example world: two slow mobiles tracking an evasive target on a grid (SPEC §4).
+//! The paper's example world: two slow mobiles tracking an evasive target on a grid (model §4).
 
 use std::collections::VecDeque;
 
@@ -27,7 +27,7 @@ pub const FORWARD: usize = 2;
 /// Mobile move: nothing.
 pub const NO_MOVE: usize = 3;
 
-/// Every constant of the target-tracking world, with the defaults of SPEC §4.
+/// Every constant of the target-tracking world, with the defaults of model §4.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct TrackingParams {
@@ -73,7 +73,7 @@ impl Default for TrackingParams {
     }
 }
 
-/// The target-tracking world (SPEC §4), validated at construction.
+/// The target-tracking world (model §4), validated at construction.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TargetTracking {
     params: TrackingParams,
@@ -142,7 +142,7 @@ impl Mobile {
 }
 
 impl TargetTracking {
-    /// The world of `case` with every other parameter at its SPEC default.
+    /// The world of `case` with every other parameter at its model §4 default.
     pub fn new(case: u8) -> Result<Self> {
         Self::with_params(TrackingParams { case, ..TrackingParams::default() })
     }
@@ -277,7 +277,7 @@ impl TargetTracking {
 
     /// The exact optimum of case 1 (fixed target): a breadth-first search over each mobile's
     /// configurations (cell × heading) finds the fewest moves `k` that bring it within the
-    /// reward radius; it can then stay, so the optimum is `T − min k` (SPEC §4: 86). The
+    /// reward radius; it can then stay, so the optimum is `T − min k` (model §4: 86). The
     /// number is the score of [`case1_optimal_plan`](Self::case1_optimal_plan) replayed through
     /// the world's own `step` and `reward`, so the search and the simulator must agree.
     pub fn case1_optimum(&self) -> Result<u32> {
@@ -589,7 +589,7 @@ mod tests {
         assert!(chi2 < 270.0, "chi2 = {chi2} on 199 degrees of freedom (0.9995 quantile ~ 270)");
     }
 
-    /// Expected move probabilities of the target, from the rule of SPEC §4.
+    /// Expected move probabilities of the target, from the rule of model §4.
     fn move_law(target: [i32; 2], b: [i32; 2], c: [i32; 2]) -> Vec<([i32; 2], f64)> {
         let mut cells = Vec::new();
         for j in target[1] - 1..=target[1] + 1 {

@@ -1,5 +1,5 @@
 //! The world interface: any episodic, partially observable world given only as a sampler
-//! (SPEC §1). Nothing here assumes a Markov or tabular world, nor an additive reward.
+//! (model §1). Nothing here assumes a Markov or tabular world, nor an additive reward.
 
 use crate::rng::EngineRng;
 
@@ -34,6 +34,6 @@ pub trait World: Sync {
     }
     /// Writes the state as numbers, in the order of `state_labels`.
     fn describe(&self, _state: &Self::State, _out: &mut Vec<i64>) {}
-    /// The world's name and every parameter, as stored in policy files (SPEC §6).
+    /// The world's name and every parameter, as stored in policy files (model §6).
     fn to_json(&self) -> serde_json::Value;
 }

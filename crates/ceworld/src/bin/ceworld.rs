@@ -18,7 +18,7 @@ use ceworld::{
 };
 
 /// Cross-entropic learning of hierarchical-HMM policies (Dambreville's method) for the
-/// target-tracking world of SPEC §4.
+/// target-tracking world of model §4.
 #[derive(Parser)]
 #[command(name = "ceworld", version, about, long_about = None)]
 struct Cli {
@@ -28,14 +28,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Optimise a policy by the cross-entropy method and save it as JSON (SPEC §6).
+    /// Optimise a policy by the cross-entropy method and save it as JSON (model §6).
     ///
     /// Prints a live progress line; Ctrl-C stops between iterations and still saves the best
     /// policy so far (marked "interrupted" in its provenance).
     Optimize(OptimizeArgs),
     /// Evaluate a saved policy on fresh episodes of the world stored in its file.
     Evaluate {
-        /// The policy file (JSON, SPEC §6).
+        /// The policy file (JSON, model §6).
         file: PathBuf,
         /// Number of fresh episodes.
         #[arg(long, default_value_t = 100_000)]
@@ -56,7 +56,7 @@ enum Command {
         #[arg(long = "param", value_name = "KEY=VALUE")]
         params: Vec<String>,
     },
-    /// Learn a Q table by Q-learning, the paper's baseline (SPEC §5): the state is the last
+    /// Learn a Q table by Q-learning, the paper's baseline (model §5): the state is the last
     /// observation and both mobiles' cells and headings, the task continuing (never reset).
     ///
     /// The table (f32; 2.6 GB for the 20×20 grid) is refused when it would not fit in memory.
@@ -166,7 +166,7 @@ struct QlearnArgs {
 struct QlearnEvalArgs {
     /// A Q table saved by `ceworld qlearn` (its greedy policy is evaluated).
     table: Option<PathBuf>,
-    /// An HHMM policy file (JSON, SPEC §6) to evaluate on the same windows, e.g. a CE policy
+    /// An HHMM policy file (JSON, model §6) to evaluate on the same windows, e.g. a CE policy
     /// with levels [16] from `ceworld optimize --case 3 --levels 16`; repeatable.
     #[arg(long = "ce-policy", value_name = "FILE.json")]
     ce_policies: Vec<PathBuf>,
