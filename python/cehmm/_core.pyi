@@ -5,10 +5,24 @@ layer checks types first. Arrays are numpy arrays: tables float64, rollouts int6
 """
 
 import os
-from typing import Any, TypedDict
+from typing import Any, TypedDict, final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "CehmmError",
+    "InvalidArgumentError",
+    "PolicyFormatError",
+    "PolicyMismatchError",
+    "TargetTracking",
+    "Policy",
+    "optimize",
+    "QLearner",
+    "evaluate_policy_windows",
+    "epsilon",
+    "ENGINE_VERSION",
+]
 
 ENGINE_VERSION: str
 
@@ -72,10 +86,11 @@ class OptimizeDict(TypedDict):
     iterations: int
     seconds: float
 
+@final
 class TargetTracking:
     """``ceworld::TargetTracking``: the world of model §4."""
 
-    def __init__(self, case: int | None = None, **params: int | list[int] | tuple[int, int]) -> None: ...
+    def __new__(cls, case: int | None = None, **params: int | list[int] | tuple[int, int]) -> TargetTracking: ...
     @property
     def case(self) -> int: ...
     @property
@@ -90,6 +105,7 @@ class TargetTracking:
     def state_labels(self) -> list[str]: ...
     def optimum(self) -> int: ...
 
+@final
 class Policy:
     """``ceworld::PolicyFile``: an HHMM policy with its world and provenance (model §6)."""
 
@@ -174,13 +190,14 @@ def evaluate_policy_windows(
     threads: int | None = None,
 ) -> WindowsDict: ...
 
+@final
 class QLearner:
     """``ceworld::QLearner<TargetTracking>``: a Q-learning run (table, counters, random stream, world state).
 
-    ``__init__`` and ``load`` raise ``MemoryError`` when the table would not fit in memory.
+    ``QLearner(...)`` and ``load`` raise ``MemoryError`` when the table would not fit in memory.
     """
 
-    def __init__(self, world: TargetTracking, *, gamma: float, alpha: float, seed: int, ties: str) -> None: ...
+    def __new__(cls, world: TargetTracking, *, gamma: float, alpha: float, seed: int, ties: str) -> QLearner: ...
     @staticmethod
     def load(path: str | os.PathLike[str]) -> QLearner: ...
     def save(self, path: str | os.PathLike[str]) -> None: ...

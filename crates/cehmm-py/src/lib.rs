@@ -6,6 +6,12 @@
 //! has, marked interrupted. The documented public API is the Python layer in `python/cehmm/`;
 //! the stub `python/cehmm/_core.pyi` lists what this module exports.
 
+// pyo3 hands extracted arguments over by value (`Vec<usize>`, `PyRef<..>`).
+#![allow(clippy::needless_pass_by_value)]
+// `|py| py.check_signals()` cannot be a method path: `Python::attach` needs the closure's
+// higher-ranked lifetime (clippy's suggestion does not compile).
+#![allow(clippy::redundant_closure_for_method_calls)]
+
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -92,7 +98,7 @@ fn parse_object(name: &str, text: Option<&str>) -> PyResult<Value> {
 fn shape_text(dims: &[usize]) -> String {
     match dims {
         [one] => format!("({one},)"),
-        _ => format!("({})", dims.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")),
+        _ => format!("({})", dims.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")),
     }
 }
 
@@ -103,7 +109,7 @@ fn int_param(value: &Bound<'_, PyAny>) -> Option<i64> {
 
 /// A world parameter's JSON value from its Python value, typed after its default.
 fn param_value(key: &str, default: &Value, value: &Bound<'_, PyAny>) -> PyResult<Value> {
-    let shown = value.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into());
+    let shown = value.repr().map_or_else(|_| "?".into(), |r| r.to_string());
     let wrong = |expected: String| raise(Error::invalid(key, format!("{shown} (expected {expected})")));
     match default {
         Value::Array(items) => {
@@ -844,10 +850,10 @@ impl PyQLearner {
     }
 
     /// A copy of the table, float32, shape `(n_states, n_actions)`.
-    fn table<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    fn table<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
         let t = self.learner.table();
         let values = py.detach(|| t.values().to_vec());
-        Ok(Array2::from_shape_vec((t.n_states(), t.n_actions()), values).expect("the table's shape").into_pyarray(py))
+        Array2::from_shape_vec((t.n_states(), t.n_actions()), values).expect("the table's shape").into_pyarray(py)
     }
 
     /// `Q(s, ·)`, float32, shape `(n_actions,)`.

@@ -24,11 +24,11 @@ fn episode(c: &mut Criterion) {
                 k += 1;
                 let mut rng = stream(0, Purpose::Optimise, 0, k);
                 black_box(run_recorded(&world, &policy, &mut rng, &mut record))
-            })
+            });
         });
         let mut counts = vec![0u32; policy.layout().len];
         group.bench_function(format!("count {levels:?}"), |b| {
-            b.iter(|| count_episode(policy.layout(), black_box(&record), &mut counts))
+            b.iter(|| count_episode(policy.layout(), black_box(&record), &mut counts));
         });
     }
     group.finish();
@@ -49,7 +49,7 @@ fn steps(c: &mut Criterion) {
                 world.step(&mut state, k & 15, &mut rng);
             }
             black_box(acc)
-        })
+        });
     });
     for levels in MODELS {
         let policy = random_policy(&world, levels, 1).unwrap();
@@ -61,7 +61,7 @@ fn steps(c: &mut Criterion) {
                     acc += policy.step(k & 15, &mut memory, false, &mut rng);
                 }
                 black_box(acc)
-            })
+            });
         });
     }
     group.finish();
@@ -76,7 +76,7 @@ fn ce_iteration(c: &mut Criterion) {
         let policy = random_policy(&world, levels, 1).unwrap();
         let config = CeConfig { max_iterations: Some(1), eval_episodes: 1, ..CeConfig::default() };
         group.bench_function(format!("{levels:?}"), |b| {
-            b.iter(|| optimize(&world, policy.clone(), &config, |_| Flow::Continue).unwrap())
+            b.iter(|| optimize(&world, policy.clone(), &config, |_| Flow::Continue).unwrap());
         });
     }
     group.finish();

@@ -19,7 +19,7 @@ fn main() {
         vec![1, 2, 4, 8, 16]
     };
     let world = TargetTracking::new(3).unwrap();
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     println!(
         "# CE iteration scaling: case 3, levels {levels:?}, N = {samples}, {iterations} iterations, {cores} cores"
     );

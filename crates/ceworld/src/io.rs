@@ -19,7 +19,7 @@ pub struct PolicyFile {
     pub policy: Hhmm,
     /// The `"world"` object: its name and every parameter.
     pub world: Value,
-    /// The `"provenance"` object (seed, samples, rho, alpha, iterations, mean_reward, version).
+    /// The `"provenance"` object (seed, samples, rho, alpha, iterations, `mean_reward`, version).
     pub provenance: Value,
 }
 

@@ -343,20 +343,7 @@ fn optimize_once<W: World>(
     let horizon = world.horizon();
     let stride = horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
-    if elite_count.saturating_mul(horizon) > u32::MAX as usize {
-        return Err(Error::invalid("samples", format!("{n}: ceil(rho·N)·T overflows the 32-bit counters")));
-    }
-    let record_bytes = (n as u128) * (stride as u128) * 2;
-    if record_bytes > MAX_RECORD_BYTES as u128 {
-        return Err(Error::invalid(
-            "samples",
-            format!(
-                "{n}: the episodes of one iteration would take {} MiB (at most {} MiB)",
-                record_bytes >> 20,
-                MAX_RECORD_BYTES >> 20
-            ),
-        ));
-    }
+    check_iteration_size(n, elite_count, horizon, stride)?;
     let started = Instant::now();
     let mut policy = initial;
     let mut records = vec![0u16; n * stride];
@@ -374,12 +361,12 @@ fn optimize_once<W: World>(
             records.par_chunks_mut(stride).zip(rewards.par_iter_mut()).enumerate().for_each(|(k, (record, reward))| {
                 let mut rng = stream(seed, Purpose::Optimise, iteration as u64, k as u64);
                 *reward = run_recorded(world, &policy, &mut rng, record);
-            })
+            });
         });
         pool.install(|| {
             keys.par_iter_mut().enumerate().for_each(|(k, key)| {
                 *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
-            })
+            });
         });
         // A strict total order (reward, then random key, then index): the elite set is the
         // same whatever the algorithm, and selection is O(N) where a sort would be O(N log N).
@@ -392,45 +379,7 @@ fn optimize_once<W: World>(
         let elite = &order[..elite_count];
         let threshold = elite.iter().copied().max_by(better).expect("the elite is never empty");
         let record_of = |k: usize| &records[k * stride..(k + 1) * stride];
-        let counts = match config.memory_update {
-            MemoryUpdate::Sampled => Counts::Integer(pool.install(|| {
-                elite
-                    .par_chunks(chunk)
-                    .map(|episodes| {
-                        let mut counts = vec![0u32; layout.len];
-                        for &k in episodes {
-                            count_episode(&layout, record_of(k), &mut counts);
-                        }
-                        counts
-                    })
-                    .reduce_with(|mut a, b| {
-                        a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                        a
-                    })
-                    .expect("the elite is never empty")
-            })),
-            MemoryUpdate::ForwardBackward => {
-                // Floating-point sums depend on their order: blocks of a fixed size, summed in
-                // block order, keep the result independent of the thread count.
-                let blocks: Vec<Vec<f64>> = pool.install(|| {
-                    elite
-                        .par_chunks(FB_BLOCK)
-                        .map_init(crate::posterior::Scratch::default, |scratch, episodes| {
-                            let mut counts = vec![0.0f64; layout.len];
-                            for &k in episodes {
-                                crate::posterior::add_expected_counts(&policy, record_of(k), &mut counts, scratch);
-                            }
-                            counts
-                        })
-                        .collect()
-                });
-                let mut total = vec![0.0f64; layout.len];
-                for block in &blocks {
-                    total.iter_mut().zip(block).for_each(|(x, y)| *x += y);
-                }
-                Counts::Real(total)
-            }
-        };
+        let counts = pool.install(|| count_elite(&policy, elite, &record_of, config.memory_update, chunk));
 
         let mean = rewards.iter().sum::<f64>() / n as f64;
         let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
@@ -457,17 +406,8 @@ fn optimize_once<W: World>(
         if observer(&record) == Flow::Stop {
             break StopReason::Interrupted;
         }
-        if config.target.is_some_and(|t| mean >= t) {
-            break StopReason::Target;
-        }
-        if unsuccessful >= config.patience {
-            break StopReason::Patience;
-        }
-        if config.max_iterations.is_some_and(|m| history.len() >= m) {
-            break StopReason::MaxIterations;
-        }
-        if config.time_limit.is_some_and(|t| record.seconds >= t) {
-            break StopReason::TimeLimit;
+        if let Some(reason) = stopping_rule(config, &record, unsuccessful) {
+            break reason;
         }
     };
     let (_, best_iteration, best_policy) = best.expect("at least one iteration ran");
@@ -483,6 +423,91 @@ fn optimize_once<W: World>(
         restart: 0,
         restart_scores: Vec::new(),
     })
+}
+
+/// Refuses an iteration whose elite would overflow the 32-bit counts or whose recorded episodes
+/// (`n` episodes of `stride` numbers) would not fit in [`MAX_RECORD_BYTES`].
+fn check_iteration_size(n: usize, elite_count: usize, horizon: usize, stride: usize) -> Result<()> {
+    if elite_count.saturating_mul(horizon) > u32::MAX as usize {
+        return Err(Error::invalid("samples", format!("{n}: ceil(rho·N)·T overflows the 32-bit counters")));
+    }
+    let record_bytes = (n as u128) * (stride as u128) * 2;
+    if record_bytes > MAX_RECORD_BYTES as u128 {
+        return Err(Error::invalid(
+            "samples",
+            format!(
+                "{n}: the episodes of one iteration would take {} MiB (at most {} MiB)",
+                record_bytes >> 20,
+                MAX_RECORD_BYTES >> 20
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The stopping rule that holds after iteration `record` with `unsuccessful` unsuccessful
+/// iterations in a row, if any (model §3), in the order target, patience, maximum, time.
+fn stopping_rule(config: &CeConfig, record: &IterationRecord, unsuccessful: usize) -> Option<StopReason> {
+    if config.target.is_some_and(|t| record.mean >= t) {
+        Some(StopReason::Target)
+    } else if unsuccessful >= config.patience {
+        Some(StopReason::Patience)
+    } else if config.max_iterations.is_some_and(|m| record.iteration + 1 >= m) {
+        Some(StopReason::MaxIterations)
+    } else if config.time_limit.is_some_and(|t| record.seconds >= t) {
+        Some(StopReason::TimeLimit)
+    } else {
+        None
+    }
+}
+
+/// The elite's counts, laid out as the policy's tables (model §3): integers summed per chunk of
+/// `chunk` episodes, or, with the forward–backward update, reals summed per block of
+/// [`FB_BLOCK`] episodes in block order, so that neither depends on the thread count. Runs on the
+/// current rayon pool.
+fn count_elite<'a>(
+    policy: &Hhmm,
+    elite: &[usize],
+    record_of: &(dyn Fn(usize) -> &'a [u16] + Sync),
+    memory_update: MemoryUpdate,
+    chunk: usize,
+) -> Counts {
+    let layout = policy.layout();
+    match memory_update {
+        MemoryUpdate::Sampled => Counts::Integer(
+            elite
+                .par_chunks(chunk)
+                .map(|episodes| {
+                    let mut counts = vec![0u32; layout.len];
+                    for &k in episodes {
+                        count_episode(layout, record_of(k), &mut counts);
+                    }
+                    counts
+                })
+                .reduce_with(|mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                    a
+                })
+                .expect("the elite is never empty"),
+        ),
+        MemoryUpdate::ForwardBackward => {
+            let blocks: Vec<Vec<f64>> = elite
+                .par_chunks(FB_BLOCK)
+                .map_init(crate::posterior::Scratch::default, |scratch, episodes| {
+                    let mut counts = vec![0.0f64; layout.len];
+                    for &k in episodes {
+                        crate::posterior::add_expected_counts(policy, record_of(k), &mut counts, scratch);
+                    }
+                    counts
+                })
+                .collect();
+            let mut total = vec![0.0f64; layout.len];
+            for block in &blocks {
+                total.iter_mut().zip(block).for_each(|(x, y)| *x += y);
+            }
+            Counts::Real(total)
+        }
+    }
 }
 
 /// A uniform policy for `levels` sized for `world`.

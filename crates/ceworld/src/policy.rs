@@ -182,7 +182,9 @@ impl Hhmm {
         for t in &layout.tables {
             for row in probs[t.offset..t.offset + t.rows * t.cols].chunks_mut(t.cols) {
                 let total: f64 = row.iter().sum();
-                row.iter_mut().for_each(|p| *p /= total);
+                for p in row.iter_mut() {
+                    *p /= total;
+                }
             }
         }
         Ok(Self::from_parts(layout, probs))
@@ -348,6 +350,7 @@ struct AliasScratch {
 /// Fills `alias` for the row `probs` (any non-negative weights with a positive sum). Zero-weight
 /// columns are paired first, so rounding can never leave one of them drawable.
 fn build_alias(probs: &[f64], alias: &mut [AliasEntry], scratch: &mut AliasScratch) {
+    const SCALE: f64 = 4_294_967_296.0; // 2^32
     let AliasScratch { small, large, scaled } = scratch;
     let n = probs.len();
     // Fast path for one-hot rows, the common case once basic CE has converged.
@@ -366,7 +369,6 @@ fn build_alias(probs: &[f64], alias: &mut [AliasEntry], scratch: &mut AliasScrat
     small.extend((0..n).filter(|&k| scaled[k] < 1.0 && scaled[k] > 0.0));
     small.extend((0..n).filter(|&k| scaled[k] == 0.0));
     large.extend((0..n).filter(|&k| scaled[k] >= 1.0));
-    const SCALE: f64 = 4_294_967_296.0; // 2^32
     while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
         small.pop();
         alias[s] = AliasEntry { threshold: (scaled[s] * SCALE) as u32, alias: l as u32 };
@@ -391,7 +393,7 @@ fn row_name(t: &TableShape, row: usize) -> String {
         r /= d;
     }
     index.reverse();
-    let index: Vec<String> = index.iter().map(|i| i.to_string()).collect();
+    let index: Vec<String> = index.iter().map(std::string::ToString::to_string).collect();
     format!("{}[{}]", t.name, index.join("]["))
 }
 

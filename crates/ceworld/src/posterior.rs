@@ -234,7 +234,9 @@ mod tests {
                 *b += w * n as f64;
             }
         }
-        brute.iter_mut().for_each(|b| *b /= z);
+        for b in &mut brute {
+            *b /= z;
+        }
         let mut fb = vec![0.0; layout.len];
         add_expected_counts(&h, &record, &mut fb, &mut Scratch::default());
         for (k, (a, b)) in brute.iter().zip(&fb).enumerate() {

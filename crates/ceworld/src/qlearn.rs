@@ -621,7 +621,7 @@ impl<W: KnownState> QLearner<W> {
                 bytes.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
                 out.write_all(&bytes)?;
             }
-            out.into_inner().map_err(|e| e.into_error())?.sync_all()
+            out.into_inner().map_err(std::io::IntoInnerError::into_error)?.sync_all()
         })();
         written.map_err(|source| Error::Io { path: tmp.clone(), source })?;
         std::fs::rename(&tmp, path).map_err(io)
@@ -1088,7 +1088,7 @@ mod tests {
         // t=3, s=0 → 1, r=0: Q(0) = 0 + 0.1 (0 + 0.99·0.1 − 0)          = 0.0099
         // t=4, s=1 → 0, r=1: Q(1) = 0.1 + 0.1 (1 + 0.99·0.0099 − 0.1)   = 0.1909801
         let mut learner = QLearner::new(Cycle { decisions: 1 }, QConfig::default()).unwrap();
-        let expected = [[0.0, 0.0], [0.0, 0.1], [0.0099, 0.1], [0.0099, 0.1909801]];
+        let expected = [[0.0, 0.0], [0.0, 0.1], [0.0099, 0.1], [0.0099, 0.190_980_1]];
         for (t, want) in expected.iter().enumerate() {
             let stats = learner.run(1);
             assert_eq!(stats.reward, (t % 2) as f64);
@@ -1132,7 +1132,7 @@ mod tests {
         assert_eq!(epsilon(1), 1.0);
         assert_eq!(epsilon(2), 1.0, "1/ln 2 = 1.44 is capped at 1");
         assert!((epsilon(3) - 1.0 / 3f64.ln()).abs() < 1e-15);
-        assert!((epsilon(1_000_000_000) - 0.048254).abs() < 1e-6);
+        assert!((epsilon(1_000_000_000) - 0.048_254).abs() < 1e-6);
         let mut previous = 1.0;
         for t in (1..2_000_000u64).step_by(997) {
             let e = epsilon(t);
@@ -1143,7 +1143,7 @@ mod tests {
     }
 
     /// One state, no reward, four decisions: Q stays 0, so with lowest-index ties the greedy
-    /// decision is always 0 and every other one comes from exploration, with probability (3/4)·ε_t.
+    /// decision is always 0 and every other one comes from exploration, with probability (`3/4)·ε_t`.
     struct Explorer {
         explored: std::sync::atomic::AtomicU64,
     }
@@ -1160,15 +1160,15 @@ mod tests {
             1
         }
         fn reset(&self, _: &mut EngineRng) {}
-        fn observe(&self, _: &(), _: &mut EngineRng) -> usize {
+        fn observe(&self, (): &(), _: &mut EngineRng) -> usize {
             0
         }
-        fn step(&self, _: &mut (), d: usize, _: &mut EngineRng) {
+        fn step(&self, (): &mut (), d: usize, _: &mut EngineRng) {
             if d != 0 {
                 self.explored.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
         }
-        fn reward(&self, _: &()) -> f64 {
+        fn reward(&self, (): &()) -> f64 {
             0.0
         }
         fn to_json(&self) -> Value {
@@ -1187,7 +1187,7 @@ mod tests {
         fn n_states(&self) -> Result<usize> {
             Ok(1)
         }
-        fn known_state(&self, _: &(), _: usize) -> usize {
+        fn known_state(&self, (): &(), _: usize) -> usize {
             0
         }
         fn restore(&self, _: &[i64]) -> Result<()> {
@@ -1197,7 +1197,7 @@ mod tests {
 
     #[test]
     fn exploration_frequency_follows_epsilon() {
-        let world = Explorer { explored: Default::default() };
+        let world = Explorer { explored: std::sync::atomic::AtomicU64::default() };
         let mut learner = QLearner::new(world, QConfig { seed: 3, ties: Ties::Lowest, ..QConfig::default() }).unwrap();
         let n = 1_000_000u64;
         learner.run(n);

@@ -27,7 +27,7 @@ pub enum Purpose {
     Select = 7,
 }
 
-/// SplitMix64's finaliser: a bijective 64-bit mixer with good avalanche.
+/// `SplitMix64`'s finaliser: a bijective 64-bit mixer with good avalanche.
 #[inline]
 pub fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);

@@ -727,6 +727,7 @@ mod tests {
     /// Best reward of a deterministic memoryless policy (a map y -> d) in case 1, by exhaustive
     /// depth-first search over the maps along the (deterministic) trajectory, pruned by the
     /// BFS bound of `case1_optimum`.
+    #[allow(clippy::items_after_statements)] // the search reads best beside its caller
     fn best_memoryless_case1(w: &TargetTracking) -> u32 {
         let p = w.params().clone();
         let to_zone = |m: Mobile| w.moves_to_encounter(m).unwrap_or(usize::MAX / 2);
@@ -751,21 +752,18 @@ mod tests {
                     return;
                 }
                 let y = w.observe(&s, &mut rng);
-                match map[y] {
-                    Some(d) => {
-                        w.step(&mut s, d, &mut rng);
-                        t += 1;
+                if let Some(d) = map[y] {
+                    w.step(&mut s, d, &mut rng);
+                    t += 1;
+                } else {
+                    for d in 0..16 {
+                        map[y] = Some(d);
+                        let mut next = s;
+                        w.step(&mut next, d, &mut rng);
+                        search(w, next, t + 1, map, best, to_zone);
                     }
-                    None => {
-                        for d in 0..16 {
-                            map[y] = Some(d);
-                            let mut next = s;
-                            w.step(&mut next, d, &mut rng);
-                            search(w, next, t + 1, map, best, to_zone);
-                        }
-                        map[y] = None;
-                        return;
-                    }
+                    map[y] = None;
+                    return;
                 }
             }
         }

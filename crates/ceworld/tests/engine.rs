@@ -222,7 +222,7 @@ fn same_seed_gives_identical_files_with_1_and_2_threads() {
     let (two, h2) = tracking_run(2);
     assert_eq!(h1, h2);
     assert_eq!(one.to_json().to_string(), two.to_json().to_string());
-    let (other_seed, _) = {
+    let (other_seed, ()) = {
         let world = TargetTracking::new(3).unwrap();
         let config = CeConfig { threads: Some(2), seed: 6, ..small(300, 4) };
         let r = optimize(&world, uniform_policy(&world, &[4, 3]).unwrap(), &config, |_| Flow::Continue).unwrap();

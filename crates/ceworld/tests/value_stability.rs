@@ -8,7 +8,11 @@ use sha2::{Digest, Sha256};
 fn sha256_hex(bytes: impl IntoIterator<Item = u8>) -> String {
     let mut hasher = Sha256::new();
     hasher.update(bytes.into_iter().collect::<Vec<u8>>());
-    hasher.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    hasher.finalize().iter().fold(String::new(), |mut hex, b| {
+        use std::fmt::Write;
+        let _ = write!(hex, "{b:02x}");
+        hex
+    })
 }
 
 /// SHA-256 of the tables (every entry as little-endian f64, in layout order), the best

@@ -52,7 +52,7 @@ enum Command {
         /// World case (only 1 has a known optimum).
         #[arg(long, default_value_t = 1)]
         case: u8,
-        /// A world parameter KEY=VALUE (repeatable), e.g. --param target_cell=[5,5].
+        /// A world parameter KEY=VALUE (repeatable), e.g. --param `target_cell`=[5,5].
         #[arg(long = "param", value_name = "KEY=VALUE")]
         params: Vec<String>,
     },
@@ -112,12 +112,13 @@ impl WindowArgs {
 }
 
 #[derive(clap::Args)]
+#[allow(clippy::struct_excessive_bools)] // command-line flags
 struct QlearnArgs {
     /// World case: 1 fixed target, 2 moving target unobserved, 3 moving target observed.
     #[arg(long, default_value_t = 3)]
     case: u8,
     /// A world parameter KEY=VALUE (repeatable), as for `optimize`; e.g. --param width=5
-    /// --param height=5 --param start_b=[0,4] --param start_c=[4,4] for a small table.
+    /// --param height=5 --param `start_b`=[0,4] --param `start_c`=[4,4] for a small table.
     #[arg(long = "param", value_name = "KEY=VALUE")]
     params: Vec<String>,
     /// Total number of updates (steps) of the run, e.g. 1e9; with --resume the run goes on
@@ -180,7 +181,7 @@ struct QlearnEvalArgs {
     json: Option<PathBuf>,
 }
 
-/// A count such as 1000000, 1_000_000 or 1e9.
+/// A count such as 1000000, `1_000_000` or 1e9.
 fn parse_count(text: &str) -> std::result::Result<u64, String> {
     let plain = text.replace('_', "");
     if let Ok(n) = plain.parse::<u64>() {
@@ -192,7 +193,7 @@ fn parse_count(text: &str) -> std::result::Result<u64, String> {
     }
 }
 
-/// The process's peak resident memory (VmHWM), in bytes, where the system reports it.
+/// The process's peak resident memory (`VmHWM`), in bytes, where the system reports it.
 fn peak_rss() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
     let kib = status.lines().find_map(|l| l.strip_prefix("VmHWM:"))?.trim().strip_suffix("kB")?.trim();
@@ -211,20 +212,22 @@ fn stop_flag() -> Arc<AtomicBool> {
     stop
 }
 
-fn run_qlearn(args: QlearnArgs) -> Result<()> {
-    let world = world_from(args.case, &args.params)?;
-    let config = QConfig { gamma: args.gamma, alpha: args.alpha, seed: args.seed, ties: Ties::parse(&args.ties)? };
-    config.validate()?;
-    args.windows.config().validate()?;
-    let checkpoint = args.checkpoint.clone().unwrap_or_else(|| args.out.clone());
-    let mut learner = if args.resume {
+/// The learner `qlearn` runs: the checkpoint's with `--resume` (which must match the world and
+/// the settings asked for), else a fresh one (refusing to overwrite a checkpoint unasked).
+fn open_learner(
+    args: &QlearnArgs,
+    world: TargetTracking,
+    config: QConfig,
+    checkpoint: &std::path::Path,
+) -> Result<QLearner<TargetTracking>> {
+    Ok(if args.resume {
         if !checkpoint.exists() {
             return Err(Error::invalid(
                 "--resume",
                 format!("{} does not exist (start without --resume)", checkpoint.display()),
             ));
         }
-        let learner = load_tracking(&checkpoint)?;
+        let learner = load_tracking(checkpoint)?;
         if learner.world() != &world {
             return Err(Error::Mismatch(format!(
                 "the checkpoint {} was made in the world {}, not the one of --case/--param ({})",
@@ -251,7 +254,16 @@ fn run_qlearn(args: QlearnArgs) -> Result<()> {
             ));
         }
         QLearner::new(world, config)?
-    };
+    })
+}
+
+fn run_qlearn(args: &QlearnArgs) -> Result<()> {
+    let world = world_from(args.case, &args.params)?;
+    let config = QConfig { gamma: args.gamma, alpha: args.alpha, seed: args.seed, ties: Ties::parse(&args.ties)? };
+    config.validate()?;
+    args.windows.config().validate()?;
+    let checkpoint = args.checkpoint.clone().unwrap_or_else(|| args.out.clone());
+    let mut learner = open_learner(args, world, config, &checkpoint)?;
     let stop = stop_flag();
     if !args.quiet {
         eprintln!(
@@ -341,7 +353,7 @@ fn print_windows(reports: &[(String, WindowReport)], reference: f64) {
     }
 }
 
-fn run_qlearn_eval(args: QlearnEvalArgs) -> Result<()> {
+fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
     if args.table.is_none() && args.ce_policies.is_empty() {
         return Err(Error::invalid(
             "qlearn-eval",
@@ -401,8 +413,8 @@ struct OptimizeArgs {
     /// World case: 1 fixed target, 2 moving target unobserved, 3 moving target observed.
     #[arg(long, default_value_t = 3)]
     case: u8,
-    /// A world parameter KEY=VALUE (repeatable): width, height, horizon, start_b, start_c,
-    /// start_heading, reward_radius, observe_radius, target_cell, target_rows; lists as [a,b].
+    /// A world parameter KEY=VALUE (repeatable): width, height, horizon, `start_b`, `start_c`,
+    /// `start_heading`, `reward_radius`, `observe_radius`, `target_cell`, `target_rows`; lists as [a,b].
     #[arg(long = "param", value_name = "KEY=VALUE")]
     params: Vec<String>,
     /// Memory sizes per level, bottom first: 16 is a memoryless policy, 16,16 an IO-HMM.
@@ -485,7 +497,7 @@ fn world_from(case: u8, params: &[String]) -> Result<TargetTracking> {
     TargetTracking::with_params(params)
 }
 
-fn run_optimize(args: OptimizeArgs) -> Result<()> {
+fn run_optimize(args: &OptimizeArgs) -> Result<()> {
     let world = world_from(args.case, &args.params)?;
     let config = CeConfig {
         samples: args.samples,
@@ -588,7 +600,7 @@ fn run_optimize(args: OptimizeArgs) -> Result<()> {
 
 fn run() -> Result<()> {
     match Cli::parse().command {
-        Command::Optimize(args) => run_optimize(args),
+        Command::Optimize(args) => run_optimize(&args),
         Command::Evaluate { file, episodes, seed, threads } => {
             let f = PolicyFile::load(&file)?;
             let world = TargetTracking::from_json(&f.world)?;
@@ -615,8 +627,8 @@ fn run() -> Result<()> {
             println!("{}", world.case1_optimum()?);
             Ok(())
         }
-        Command::Qlearn(args) => run_qlearn(args),
-        Command::QlearnEval(args) => run_qlearn_eval(args),
+        Command::Qlearn(args) => run_qlearn(&args),
+        Command::QlearnEval(args) => run_qlearn_eval(&args),
     }
 }
 
