@@ -24,13 +24,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 use serde_json::{Value, json};
 
-use ceworld::episode::run_with;
+use ceworld::ce::episode::run_with;
 use ceworld::evaluate::check_fits;
-use ceworld::optimize::thread_pool;
 use ceworld::qlearn::{
     Greedy, KnownState, QConfig, QLearner, QProgress, Ties, WindowConfig, WindowReport, evaluate_windows,
 };
 use ceworld::rng::{Purpose, stream};
+use ceworld::thread_pool;
 use ceworld::{
     CeConfig, Error, Evaluation, Flow, Hhmm, IterationRecord, Layout, PolicyFile, TrackingParams, World, random_policy,
     uniform_policy,

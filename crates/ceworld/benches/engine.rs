@@ -5,7 +5,8 @@ use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
-use ceworld::episode::{count_episode, run_recorded};
+use ceworld::ce::counting::count_episode;
+use ceworld::ce::episode::run_recorded;
 use ceworld::rng::{Purpose, stream};
 use ceworld::{CeConfig, Flow, TargetTracking, World, optimize, random_policy};
 

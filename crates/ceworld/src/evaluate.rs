@@ -3,7 +3,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::episode::run_with;
+use crate::ce::episode::run_with;
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, stream};
@@ -52,11 +52,14 @@ impl Evaluation {
     }
 }
 
+/// Largest number of episodes of one evaluation (their rewards are kept for the quantiles).
+pub const MAX_EPISODES: usize = 100_000_000;
+
 /// Rewards of `episodes` fresh episodes (streams `(seed, Evaluate, 0, k)`), in episode order.
 pub fn rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Vec<f64>> {
     check_fits(world, policy)?;
-    if episodes == 0 || episodes > crate::optimize::MAX_EPISODES {
-        return Err(Error::invalid("episodes", format!("{episodes} (expected 1..={})", crate::optimize::MAX_EPISODES)));
+    if episodes == 0 || episodes > MAX_EPISODES {
+        return Err(Error::invalid("episodes", format!("{episodes} (expected 1..={MAX_EPISODES})")));
     }
     Ok(episode_rewards(world, policy, episodes, seed, Purpose::Evaluate))
 }

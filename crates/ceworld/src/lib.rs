@@ -14,32 +14,30 @@
 //! assert_eq!(result.history.len(), 3);
 //! ```
 
-pub mod episode;
+pub mod ce;
+pub mod control;
 pub mod error;
 pub mod evaluate;
-pub mod io;
-pub mod optimize;
 pub mod policy;
-pub mod posterior;
 pub mod qlearn;
 pub mod rng;
-pub mod tracking;
 pub mod world;
 
-pub use error::{Error, Result};
-pub use evaluate::{Evaluation, evaluate};
-pub use io::PolicyFile;
-pub use optimize::{
-    CeConfig, CeResult, Flow, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE, clock_policy,
+pub use ce::optimize::{
+    CeConfig, CeResult, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE, clock_policy,
     optimize, random_policy, uniform_policy,
 };
+pub use control::{Flow, thread_pool};
+pub use error::{Error, Result};
+pub use evaluate::{Evaluation, evaluate};
+pub use policy::file::PolicyFile;
 pub use policy::{Hhmm, Layout};
 pub use qlearn::{
     ContinuingWorld, Greedy, KnownState, QConfig, QLearner, QTable, Ties, WindowConfig, WindowPolicy, WindowReport,
     evaluate_windows,
 };
-pub use tracking::{TargetTracking, TrackingParams};
 pub use world::World;
+pub use world::tracking::{TargetTracking, TrackingParams};
 
 /// The engine's version, written into policy files.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

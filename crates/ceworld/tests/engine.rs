@@ -1,7 +1,8 @@
 //! The engine through its public API: sampling, counting, the CE update, stopping rules,
 //! determinism across thread counts, and policy files.
 
-use ceworld::episode::{count_episode, run_recorded, run_with};
+use ceworld::ce::counting::count_episode;
+use ceworld::ce::episode::{run_recorded, run_with};
 use ceworld::rng::{EngineRng, Purpose, stream, stream_key};
 use ceworld::{
     CeConfig, Error, Flow, Hhmm, Layout, PolicyFile, StopReason, TargetTracking, World, optimize, random_policy,

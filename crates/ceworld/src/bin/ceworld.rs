@@ -10,8 +10,8 @@ use std::time::Instant;
 use clap::{Parser, Subcommand};
 use serde_json::Value;
 
-use ceworld::optimize::thread_pool;
 use ceworld::qlearn::{Greedy, PAPER_REFERENCE, QProgress, Ties, load_tracking, percent};
+use ceworld::thread_pool;
 use ceworld::{
     CeConfig, Error, Flow, PolicyFile, QConfig, QLearner, Result, TargetTracking, TrackingParams, WindowConfig,
     WindowReport, World, evaluate, evaluate_windows, optimize, random_policy, uniform_policy,

@@ -3,6 +3,8 @@
 
 use crate::rng::EngineRng;
 
+pub mod tracking;
+
 /// An episodic world that the optimiser can sample.
 ///
 /// One episode runs, for `t = 1..=horizon()`: `observe` (emits `y_t`), then the policy draws

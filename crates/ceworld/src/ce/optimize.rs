@@ -5,9 +5,11 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::episode::{count_episode, run_recorded};
+use crate::ce::counting::count_episode;
+use crate::ce::episode::run_recorded;
+use crate::control::{Flow, check_threads, thread_pool};
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, check_fits, evaluate, selection_mean};
+use crate::evaluate::{Evaluation, MAX_EPISODES, check_fits, evaluate, selection_mean};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, stream, stream_key};
 use crate::world::World;
@@ -99,8 +101,6 @@ impl Default for CeConfig {
     }
 }
 
-/// Largest number of episodes of one evaluation (their rewards are kept for the quantiles).
-pub const MAX_EPISODES: usize = 100_000_000;
 /// Largest memory for the recorded episodes of one iteration.
 pub const MAX_RECORD_BYTES: usize = 8 << 30;
 
@@ -215,15 +215,6 @@ impl StopReason {
     }
 }
 
-/// What the caller's observer says after each iteration.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Flow {
-    /// Go on.
-    Continue,
-    /// Stop now and return what there is (marked as interrupted).
-    Stop,
-}
-
 /// The outcome of an optimisation.
 #[derive(Clone, Debug)]
 pub struct CeResult {
@@ -253,26 +244,6 @@ impl CeResult {
     pub fn interrupted(&self) -> bool {
         self.stop == StopReason::Interrupted
     }
-}
-
-/// Most worker threads of one pool.
-pub const MAX_THREADS: usize = 1024;
-
-fn check_threads(n: usize) -> Result<()> {
-    if n == 0 || n > MAX_THREADS {
-        return Err(Error::invalid("threads", format!("{n} (expected 1..={MAX_THREADS}, or none for one per core)")));
-    }
-    Ok(())
-}
-
-/// A rayon pool of `threads` workers (all cores when `None`).
-pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        check_threads(n)?;
-        builder = builder.num_threads(n);
-    }
-    builder.build().map_err(|e| Error::invalid("threads", e.to_string()))
 }
 
 /// Runs the cross-entropy method from `initial` until a stopping rule holds, calling
@@ -336,7 +307,7 @@ fn optimize_once<W: World>(
 ) -> Result<CeResult> {
     check_fits(world, &initial)?;
     if config.memory_update == MemoryUpdate::ForwardBackward {
-        crate::posterior::check_supported(initial.layout())?;
+        crate::ce::posterior::check_supported(initial.layout())?;
     }
     let pool = thread_pool(config.threads)?;
     let layout = initial.layout().clone();
@@ -493,10 +464,10 @@ fn count_elite<'a>(
         MemoryUpdate::ForwardBackward => {
             let blocks: Vec<Vec<f64>> = elite
                 .par_chunks(FB_BLOCK)
-                .map_init(crate::posterior::Scratch::default, |scratch, episodes| {
+                .map_init(crate::ce::posterior::Scratch::default, |scratch, episodes| {
                     let mut counts = vec![0.0f64; layout.len];
                     for &k in episodes {
-                        crate::posterior::add_expected_counts(policy, record_of(k), &mut counts, scratch);
+                        crate::ce::posterior::add_expected_counts(policy, record_of(k), &mut counts, scratch);
                     }
                     counts
                 })

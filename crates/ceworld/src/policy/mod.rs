@@ -12,6 +12,8 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::rng::EngineRng;
 
+pub mod file;
+
 /// Largest memory size of one level (trajectories store states as `u16`).
 pub const MAX_LEVEL_SIZE: usize = 65_535;
 

@@ -146,7 +146,7 @@ pub fn add_expected_counts(policy: &Hhmm, record: &[u16], counts: &mut [f64], s:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::episode::count_episode;
+    use crate::ce::counting::count_episode;
 
     #[test]
     fn deterministic_policy_gives_the_sampled_counts() {

@@ -1,0 +1,7 @@
+//! The cross-entropy method (model §3): episodes of world × policy, the counts of the elite, the
+//! forward–backward alternative for the memory, and the optimiser that iterates them.
+
+pub mod counting;
+pub mod episode;
+pub mod optimize;
+pub mod posterior;
