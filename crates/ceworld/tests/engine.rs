@@ -378,7 +378,8 @@ impl World for Noise {
 
 #[test]
 fn elite_size_is_ceil_rho_n() {
-    for (samples, rho, elite) in [(10, 0.5, 5), (10, 0.25, 3), (8, 0.5, 4), (7, 0.1, 1), (1000, 0.1, 100)] {
+    for (samples, rho, elite) in [(10, 0.5, 5), (10, 0.25, 3), (8, 0.5, 4), (7, 0.1, 1), (10, 0.9, 9), (1000, 0.1, 100)]
+    {
         let config = CeConfig { rho, ..small(samples, 1) };
         assert_eq!(config.elite_count(), elite, "N = {samples}, rho = {rho}");
         // The first iteration's elite, recomputed from the same episode streams.
@@ -387,12 +388,15 @@ fn elite_size_is_ceil_rho_n() {
         let mut rewards: Vec<f64> = (0..samples as u64)
             .map(|k| run_with(&Noise, &policy, &mut stream(config.seed, Purpose::Optimise, 0, k), |_, _, _, _, _| {}))
             .collect();
+        // The iteration's mean sums the rewards in episode order.
+        let mean = rewards.iter().sum::<f64>() / samples as f64;
         rewards.sort_by(|a, b| b.total_cmp(a));
         let h = &r.history[0];
         assert_eq!(h.elite_threshold, rewards[elite - 1], "N = {samples}, rho = {rho}");
         let elite_mean = rewards[..elite].iter().sum::<f64>() / elite as f64;
         assert!((h.elite_mean - elite_mean).abs() < 1e-12, "N = {samples}, rho = {rho}");
         assert_eq!(h.best, rewards[0]);
+        assert_eq!(h.mean, mean);
     }
 }
 
@@ -626,4 +630,24 @@ fn restarts_share_the_time_limit_stop_on_interruption_and_keep_the_first_of_equa
     let (r, _) = runs_of(&CeConfig { max_iterations: Some(5), ..config }, None);
     assert_eq!(r.restart_scores, vec![2.0; 3]);
     assert_eq!(r.restart, 0);
+}
+
+#[test]
+fn forward_backward_counts_equal_sampled_counts_when_the_memory_is_determined() {
+    // A clock's memory is one-hot given the step, so its posterior is the sampled memory: one
+    // forward–backward iteration (elite of 250 episodes, several blocks of 32) must give the
+    // tables of one sampled iteration, whatever the thread count.
+    let world = Plan { horizon: 6, n_decisions: 3 };
+    let run = |memory_update, threads| {
+        let config = CeConfig { memory_update, threads: Some(threads), ..small(500, 1) };
+        optimize(&world, ceworld::clock_policy(&world, &[6, 6]).unwrap(), &config, |_| Flow::Continue).unwrap()
+    };
+    let sampled = run(ceworld::MemoryUpdate::Sampled, 1).last_policy;
+    for threads in [1, 2] {
+        let posterior = run(ceworld::MemoryUpdate::ForwardBackward, threads).last_policy;
+        for (a, b) in sampled.probs().iter().zip(posterior.probs()) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
+        }
+    }
+    assert_ne!(sampled.table(0), ceworld::clock_policy(&world, &[6, 6]).unwrap().table(0), "the update changed h0");
 }

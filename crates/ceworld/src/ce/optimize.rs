@@ -511,6 +511,47 @@ mod tests {
     }
 
     #[test]
+    fn settings_are_checked_at_their_bounds() {
+        let ok = |c: CeConfig| c.validate().is_ok();
+        let base = CeConfig::default();
+        for t in [0.0, -1.0, f64::NAN] {
+            assert!(!ok(CeConfig { time_limit: Some(t), ..base.clone() }), "time_limit {t}");
+        }
+        assert!(ok(CeConfig { time_limit: Some(1e-9), ..base.clone() }));
+        assert!(!ok(CeConfig { eval_episodes: 0, ..base.clone() }));
+        assert!(ok(CeConfig { eval_episodes: MAX_EPISODES, ..base.clone() }));
+        assert!(!ok(CeConfig { eval_episodes: MAX_EPISODES + 1, ..base.clone() }));
+        assert!(ok(CeConfig { threads: Some(crate::control::MAX_THREADS), ..base.clone() }));
+        assert!(!ok(CeConfig { threads: Some(crate::control::MAX_THREADS + 1), ..base.clone() }));
+        assert!(!ok(CeConfig { threads: Some(0), ..base.clone() }));
+        for rho in [0.0, 1.0, f64::NAN] {
+            assert!(!ok(CeConfig { rho, ..base.clone() }), "rho {rho}");
+        }
+        assert!(ok(CeConfig { rho: 0.999, ..base.clone() }));
+        assert!(!ok(CeConfig { smoothing: 0.0, ..base.clone() }));
+        assert!(ok(CeConfig { smoothing: 1.0, ..base.clone() }));
+        assert!(!ok(CeConfig { samples: 0, ..base.clone() }));
+        assert!(!ok(CeConfig { patience: 0, ..base.clone() }));
+        assert!(!ok(CeConfig { max_iterations: Some(0), ..base.clone() }));
+        assert!(!ok(CeConfig { restarts: 0, ..base.clone() }));
+        assert!(!ok(CeConfig { target: Some(f64::NAN), ..base }));
+    }
+
+    #[test]
+    fn iteration_size_limits_are_checked_at_their_bounds() {
+        // The elite's counts: ceil(ρN)·T steps must fit in u32.
+        let max = u32::MAX as usize;
+        assert!(check_iteration_size(1, max, 1, 1).is_ok());
+        assert!(check_iteration_size(1, max + 1, 1, 1).is_err());
+        assert!(check_iteration_size(1, max / 2 + 1, 2, 1).is_err());
+        // The records: N · stride numbers of 2 bytes, at most MAX_RECORD_BYTES (2^33).
+        assert!(check_iteration_size(1 << 22, 1, 1, 1 << 10).is_ok());
+        assert!(check_iteration_size((1 << 22) + 1, 1, 1, 1 << 10).is_err());
+        let e = check_iteration_size(1 << 24, 1, 1, 1 << 10).unwrap_err().to_string();
+        assert!(e.contains("32768 MiB (at most 8192 MiB)"), "{e}");
+    }
+
+    #[test]
     fn stop_reasons_have_snake_case_names() {
         let names: Vec<_> = [
             StopReason::Patience,

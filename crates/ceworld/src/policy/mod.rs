@@ -20,11 +20,6 @@ pub const MAX_LEVEL_SIZE: usize = 65_535;
 /// Largest number of table entries of one policy (each costs 16 bytes: probability and cumulated value).
 pub const MAX_ENTRIES: usize = 1 << 28;
 
-/// `|M_{l+1}|` for 1-based level `l`, or 1 at the top.
-fn layout_upper(levels: &[usize], l: usize) -> usize {
-    if l < levels.len() { levels[l] } else { 1 }
-}
-
 /// Where one conditional table sits in the flat parameter vector.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TableShape {
@@ -75,10 +70,17 @@ impl Layout {
                 return Err(Error::invalid(name, format!("{v} (expected 1..={MAX_LEVEL_SIZE})")));
             }
         }
-        let mut entries = (levels[0] as u128) * (n_actions as u128 + n_obs as u128 * layout_upper(levels, 1) as u128);
-        for l in 2..=levels.len() {
-            entries += levels[l - 1] as u128 * layout_upper(levels, l) as u128 * (1 + levels[l - 2] as u128);
+        // The shapes first (as in the policy file, model §6), their size checked before any
+        // table exists; sizes in u128 so that no product can overflow.
+        let lambda = levels.len();
+        let upper = |l: usize| if l < lambda { levels[l] } else { 1 }; // |M_{l+1}|, 1-based l
+        let mut shapes =
+            vec![("h0".to_string(), vec![levels[0], n_actions]), ("h1".into(), vec![n_obs, upper(1), levels[0]])];
+        for l in 2..=lambda {
+            shapes.push((format!("upper[{}].start", l - 2), vec![upper(l), levels[l - 1]]));
+            shapes.push((format!("upper[{}].step", l - 2), vec![levels[l - 2], upper(l), levels[l - 1]]));
         }
+        let entries: u128 = shapes.iter().map(|(_, dims)| dims.iter().map(|&d| d as u128).product::<u128>()).sum();
         if entries > MAX_ENTRIES as u128 {
             return Err(Error::invalid(
                 "levels",
@@ -88,21 +90,13 @@ impl Layout {
                 ),
             ));
         }
-        let mut tables = Vec::with_capacity(2 * levels.len());
+        let mut tables = Vec::with_capacity(shapes.len());
         let mut offset = 0;
-        let mut push = |name: String, dims: Vec<usize>| {
-            let cols = *dims.last().unwrap();
+        for (name, dims) in shapes {
+            let cols = *dims.last().expect("every table has an outcome axis");
             let rows = dims[..dims.len() - 1].iter().product::<usize>();
             tables.push(TableShape { name, dims, rows, cols, offset });
             offset += rows * cols;
-        };
-        let lambda = levels.len();
-        let upper = |l: usize| if l < lambda { levels[l] } else { 1 }; // |M_{l+1}|, 1-based l
-        push("h0".into(), vec![levels[0], n_actions]);
-        push("h1".into(), vec![n_obs, upper(1), levels[0]]);
-        for l in 2..=lambda {
-            push(format!("upper[{}].start", l - 2), vec![upper(l), levels[l - 1]]);
-            push(format!("upper[{}].step", l - 2), vec![levels[l - 2], upper(l), levels[l - 1]]);
         }
         Ok(Layout { n_obs, n_actions, levels: levels.to_vec(), tables, len: offset })
     }
@@ -438,6 +432,43 @@ mod tests {
         assert!(Layout::new(16, 16, &[1024, 1024]).is_ok());
         let e = Layout::new(16, 16, &[65_535, 65_535]).unwrap_err().to_string();
         assert!(e.contains("table entries"), "{e}");
+        // 285,282,304 entries, just over 2^28, most of them in h1 (16 × 4096 × 4096).
+        let e = Layout::new(16, 16, &[4096, 4096]).unwrap_err().to_string();
+        assert!(e.contains("285282304 table entries"), "{e}");
+    }
+
+    #[test]
+    fn random_rows_are_uniform_draws_normalised() {
+        // 20,000 rows of two entries u0, u1 uniform in (0, 1]: p0 = u0 / (u0 + u1) < 1/4 when
+        // u1 > 3·u0, which has probability 1/6.
+        let n = 20_000;
+        let h = Hhmm::random(1, 2, &[n], &mut stream(5, Purpose::Init, 0, 0)).unwrap();
+        assert!(Hhmm::from_flat(h.layout().clone(), h.probs().to_vec()).is_ok(), "every row sums to 1");
+        assert!(h.probs().iter().all(|&p| p > 0.0 && p < 1.0));
+        let low = h.table(0).chunks(2).filter(|row| row[0] < 0.25).count();
+        let (p, sd) = (1.0 / 6.0, (1.0 / 6.0 * 5.0 / 6.0 / n as f64).sqrt());
+        let f = low as f64 / n as f64;
+        assert!((f - p).abs() < 4.0 * sd, "P(p0 < 1/4) = {f}, expected {p} ± {}", 4.0 * sd);
+    }
+
+    #[test]
+    fn clock_tables_by_hand() {
+        // Y = 3, D = 2, levels [4, 4]: h0 uniform, h1[y][u] = e_u for every y, start = e_0,
+        // step[p][0] = e_{p+1 mod 4}.
+        let h = Hhmm::clock(3, 2, &[4, 4]).unwrap();
+        assert!(Hhmm::from_flat(h.layout().clone(), h.probs().to_vec()).is_ok(), "every row sums to 1");
+        assert!(h.table(0).iter().all(|&p| p == 0.5));
+        for (row, probs) in h.table(1).chunks(4).enumerate() {
+            let u = row % 4;
+            assert!(
+                probs.iter().enumerate().all(|(m, &p)| p == f64::from(u8::from(m == u))),
+                "h1 row {row}: {probs:?}"
+            );
+        }
+        assert_eq!(h.table(2), &[1.0, 0.0, 0.0, 0.0]);
+        for (p, probs) in h.table(3).chunks(4).enumerate() {
+            assert!(probs.iter().enumerate().all(|(m, &q)| q == f64::from(u8::from(m == (p + 1) % 4))), "step {p}");
+        }
     }
 
     #[test]
