@@ -307,10 +307,7 @@ impl Hhmm {
     #[inline]
     fn draw(&self, table: usize, row: usize, rng: &mut EngineRng) -> usize {
         let (offset, cols) = self.spans[table];
-        let x = rng.next_u64();
-        let column = (((x >> 32) * cols as u64) >> 32) as usize;
-        let entry = self.alias[offset + row * cols + column];
-        if (x as u32) < entry.threshold { column } else { entry.alias as usize }
+        pick(&self.alias, offset + row * cols, cols, rng.next_u64())
     }
 
     /// One step of top-down sampling (model §2). `memory[l - 1]` holds `m_l[t - 1]` on entry and
@@ -333,6 +330,16 @@ impl Hhmm {
         memory[0] = m1 as u16;
         self.draw(0, m1, rng)
     }
+}
+
+/// The outcome of the alias row of `cols` entries starting at `alias[start]` for the random word
+/// `x`: its high 32 bits pick a column uniformly, its low 32 bits keep the column when below the
+/// column's threshold, else take its alias.
+#[inline]
+fn pick(alias: &[AliasEntry], start: usize, cols: usize, x: u64) -> usize {
+    let column = (((x >> 32) * cols as u64) >> 32) as usize;
+    let entry = alias[start + column];
+    if (x as u32) < entry.threshold { column } else { entry.alias as usize }
 }
 
 /// Reused buffers of [`build_alias`].
@@ -483,6 +490,57 @@ mod tests {
         probs[5] = 0.7;
         let e = Hhmm::from_flat(u.layout().clone(), probs).unwrap_err().to_string();
         assert!(e.contains("h1[0][0] sums to 1.2"), "{e}");
+    }
+
+    /// The alias row of `weights`, built as the sampler builds it.
+    fn alias_row(weights: &[f64]) -> Vec<AliasEntry> {
+        let mut alias = vec![AliasEntry::default(); weights.len()];
+        build_alias(weights, &mut alias, &mut AliasScratch::default());
+        alias
+    }
+
+    #[test]
+    fn alias_rows_by_hand() {
+        // Weights 1 and 3 (not normalised): scaled 0.5 and 1.5, so column 0 is kept half the
+        // time and otherwise gives way to column 1, which is always kept.
+        let row = alias_row(&[1.0, 3.0]);
+        assert_eq!(row[0], AliasEntry { threshold: 1 << 31, alias: 1 });
+        assert_eq!(row[1], AliasEntry { threshold: u32::MAX, alias: 1 });
+        // A one-hot row: every other column has threshold 0 and the hot one as alias.
+        let row = alias_row(&[0.0, 1.0, 0.0]);
+        assert_eq!(row, [AliasEntry { threshold: 0, alias: 1 }, AliasEntry { threshold: u32::MAX, alias: 1 }, row[0]]);
+    }
+
+    #[test]
+    fn a_draw_keeps_a_column_strictly_below_its_threshold() {
+        let row = alias_row(&[1.0, 3.0]);
+        // High bits 0 pick column 0; low bits decide: below 2^31 keep it, from 2^31 on take 1.
+        assert_eq!(pick(&row, 0, 2, (1 << 31) - 1), 0);
+        assert_eq!(pick(&row, 0, 2, 1 << 31), 1);
+        // High bits 2^31 pick column 1 (always kept, even with the largest low bits).
+        assert_eq!(pick(&row, 0, 2, (1 << 63) | u64::from(u32::MAX)), 1);
+        // A zero-probability column is never drawn, even with low bits 0.
+        let hot = alias_row(&[0.0, 1.0, 0.0]);
+        for x in [0, u64::from(u32::MAX), u64::MAX, 1 << 63] {
+            assert_eq!(pick(&hot, 0, 3, x), 1, "x = {x:#x}");
+        }
+    }
+
+    #[test]
+    fn the_observation_selects_the_row_of_h1() {
+        // Λ = 2, Y = 3, levels [2, 2]: m2 starts at 1 for sure, and h1[y][1] is one-hot on a
+        // different m1 for y = 1 than for y = 0 and 2, so m1 (and d = m1, by h0) shows the row.
+        let layout = Layout::new(3, 2, &[2, 2]).unwrap();
+        let h0 = vec![1.0, 0.0, 0.0, 1.0];
+        let h1 = vec![0.5, 0.5, 1.0, 0.0, 0.5, 0.5, 0.0, 1.0, 0.5, 0.5, 1.0, 0.0];
+        let (start, step) = (vec![0.0, 1.0], vec![0.0, 1.0, 0.0, 1.0]);
+        let h = Hhmm::from_flat(layout, [h0, h1, start, step].concat()).unwrap();
+        let mut rng = stream(1, Purpose::Evaluate, 0, 0);
+        for (y, d) in [(0, 0), (1, 1), (2, 0)] {
+            let mut memory = [0u16; 2];
+            assert_eq!(h.step(y, &mut memory, true, &mut rng), d, "y = {y}");
+            assert_eq!(memory, [d as u16, 1]);
+        }
     }
 
     /// Draw frequencies of a fixed row against its probabilities: Pearson's chi-square with a
