@@ -216,3 +216,17 @@ def test_restarts_keep_the_best_run():
         assert np.array_equal(plain.policy.tables["h0"], result.policy.tables["h0"])
     with pytest.raises(cehmm.InvalidArgumentError, match="restarts"):
         cehmm.optimize(world, restarts=0, **kwargs)
+
+
+def test_defaults_are_the_engines():
+    # One home per fact: the Python signature's defaults are read from the engine, not retyped.
+    import inspect
+
+    from cehmm import _core
+
+    params = inspect.signature(cehmm.optimize).parameters
+    for name, value in _core.CE_DEFAULTS.items():
+        assert params[name].default == value, name
+    assert _core.CE_DEFAULTS["samples"] == 1000 and _core.CE_DEFAULTS["rho"] == 0.5
+    assert list(_core.DEFAULT_LEVELS) == [16, 16]
+    assert (_core.WEAK_PATIENCE, _core.STRONG_PATIENCE, _core.PAPER_REFERENCE) == (100, 500, 69.0)

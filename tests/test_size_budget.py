@@ -14,9 +14,9 @@ BUDGET = 600
 
 #: Over the budget when it was set: path -> the most lines it may have until it is split.
 OVER_BUDGET = {
-    "crates/cehmm-py/src/lib.rs": 899,
+    "crates/cehmm-py/src/lib.rs": 892,
     "crates/ceworld/src/bin/ceworld.rs": 643,
-    "python/cehmm/reproduce.py": 1229,
+    "python/cehmm/reproduce.py": 1135,
 }
 
 

@@ -22,9 +22,26 @@ __all__ = [
     "evaluate_policy_windows",
     "epsilon",
     "ENGINE_VERSION",
+    "CE_DEFAULTS",
+    "DEFAULT_LEVELS",
+    "WEAK_PATIENCE",
+    "STRONG_PATIENCE",
+    "WINDOW_DEFAULTS",
+    "Q_DEFAULTS",
+    "PAPER_REFERENCE",
 ]
 
 ENGINE_VERSION: str
+#: ``CeConfig::default()``: samples, rho, smoothing, patience, seed, eval_episodes, memory_update, restarts.
+CE_DEFAULTS: dict[str, Any]
+DEFAULT_LEVELS: list[int]
+WEAK_PATIENCE: int
+STRONG_PATIENCE: int
+#: ``WindowConfig::default()``: window, episodes, chains, burn_in, windows_per_chain.
+WINDOW_DEFAULTS: dict[str, int]
+#: ``QConfig::default()`` and the checkpoint interval: gamma, alpha, ties, checkpoint_every.
+Q_DEFAULTS: dict[str, Any]
+PAPER_REFERENCE: float
 
 class CehmmError(ValueError):
     """Base class of the errors raised by cehmm."""

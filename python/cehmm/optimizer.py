@@ -17,7 +17,9 @@ from .tracking import TargetTracking, core_world
 #: What :func:`optimize` starts from.
 Init = Union[None, str, Policy]
 
-DEFAULT_LEVELS = (16, 16)
+#: The engine's defaults (one home: ``ceworld::CeConfig::default()``).
+CE_DEFAULTS = _core.CE_DEFAULTS
+DEFAULT_LEVELS = tuple(_core.DEFAULT_LEVELS)
 
 
 @dataclass(frozen=True, repr=False, eq=False)
@@ -68,20 +70,20 @@ class OptimizeResult:
 def optimize(
     world: TargetTracking,
     levels: Sequence[int] | None = None,
-    samples: int = 1000,
-    rho: float = 0.5,
-    smoothing: float = 1.0,
-    patience: int = 100,
+    samples: int = CE_DEFAULTS["samples"],
+    rho: float = CE_DEFAULTS["rho"],
+    smoothing: float = CE_DEFAULTS["smoothing"],
+    patience: int = CE_DEFAULTS["patience"],
     max_iterations: int | None = None,
     time_limit: float | None = None,
     target: float | None = None,
-    seed: int = 0,
+    seed: int = CE_DEFAULTS["seed"],
     threads: int | None = None,
     progress: bool = True,
-    eval_episodes: int = 10000,
+    eval_episodes: int = CE_DEFAULTS["eval_episodes"],
     init: Init = None,
-    memory_update: str = "sampled",
-    restarts: int = 1,
+    memory_update: str = CE_DEFAULTS["memory_update"],
+    restarts: int = CE_DEFAULTS["restarts"],
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (model §3).
 

@@ -27,12 +27,13 @@ from .tracking import TargetTracking, core_world
 PathLike = Union[str, "os.PathLike[str]"]
 
 #: The paper's best case-3 reward: the 100 % of its comparison table.
-PAPER_REFERENCE = 69.0
+PAPER_REFERENCE: float = _core.PAPER_REFERENCE
 
-#: Window settings of :meth:`QLearner.evaluate_windows` and :func:`evaluate_windows`.
-WINDOW_DEFAULTS: dict[str, int] = dict(
-    window=100, episodes=10_000, chains=16, burn_in=100_000, windows_per_chain=10_000
-)
+#: Window settings of :meth:`QLearner.evaluate_windows` and :func:`evaluate_windows` (the engine's).
+WINDOW_DEFAULTS: dict[str, int] = dict(_core.WINDOW_DEFAULTS)
+
+#: Q-learning settings (the engine's: the paper's γ and α, random ties, checkpoints every 600 s).
+Q_DEFAULTS = _core.Q_DEFAULTS
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,12 @@ class QLearner:
 
     @classmethod
     def new(
-        cls, world: TargetTracking, gamma: float = 0.99, alpha: float = 0.1, seed: int = 0, ties: str = "random"
+        cls,
+        world: TargetTracking,
+        gamma: float = Q_DEFAULTS["gamma"],
+        alpha: float = Q_DEFAULTS["alpha"],
+        seed: int = 0,
+        ties: str = Q_DEFAULTS["ties"],
     ) -> QLearner:
         """A fresh run with a zero table, not trained yet.
 
@@ -303,11 +309,11 @@ def qlearning(
     iterations: int = 10**9,
     *,
     seed: int = 0,
-    gamma: float = 0.99,
-    alpha: float = 0.1,
-    ties: str = "random",
+    gamma: float = Q_DEFAULTS["gamma"],
+    alpha: float = Q_DEFAULTS["alpha"],
+    ties: str = Q_DEFAULTS["ties"],
     checkpoint: PathLike | None = None,
-    checkpoint_every: float | None = 600.0,
+    checkpoint_every: float | None = Q_DEFAULTS["checkpoint_every"],
     resume: bool = False,
     progress: bool = True,
 ) -> QLearner:

@@ -1,16 +1,15 @@
 //! Python bindings of the `ceworld` engine, built by maturin as the private module `cehmm._core`.
 //!
-//! One file, no logic: each function converts its arguments, calls the core and converts the
-//! result. Optimisation, evaluation and rollouts run detached from the interpreter
+//! Each function converts its arguments, calls the core and converts the result (`defaults.rs`
+//! exports the core's defaults and constants). Optimisation, evaluation and rollouts run detached from the interpreter
 //! (`py.detach`); an optimisation checks for Ctrl-C between iterations and then returns what it
 //! has, marked interrupted. The documented public API is the Python layer in `python/cehmm/`;
 //! the stub `python/cehmm/_core.pyi` lists what this module exports.
 
-// pyo3 hands extracted arguments over by value (`Vec<usize>`, `PyRef<..>`).
-#![allow(clippy::needless_pass_by_value)]
-// `|py| py.check_signals()` cannot be a method path: `Python::attach` needs the closure's
-// higher-ranked lifetime (clippy's suggestion does not compile).
-#![allow(clippy::redundant_closure_for_method_calls)]
+#![allow(clippy::needless_pass_by_value)] // pyo3 extracts arguments by value
+#![allow(clippy::redundant_closure_for_method_calls)] // `Python::attach` needs a closure, not a path
+
+mod defaults;
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -644,12 +643,6 @@ fn window_report_dict<'py>(py: Python<'py>, report: &WindowReport) -> PyResult<B
     Ok(d)
 }
 
-/// The exploration rate of Q-learning update `t` (`ceworld::qlearn::epsilon`).
-#[pyfunction]
-fn epsilon(t: u64) -> f64 {
-    ceworld::qlearn::epsilon(t)
-}
-
 /// An HHMM policy evaluated on 100-step windows as the paper compares policies (see
 /// `ceworld::qlearn::evaluate_windows`).
 #[pyfunction]
@@ -893,7 +886,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(optimize, m)?)?;
     m.add_class::<PyQLearner>()?;
     m.add_function(wrap_pyfunction!(evaluate_policy_windows, m)?)?;
-    m.add_function(wrap_pyfunction!(epsilon, m)?)?;
     m.add("ENGINE_VERSION", ceworld::VERSION)?;
+    defaults::add(m)?;
     Ok(())
 }

@@ -24,8 +24,8 @@ pub mod rng;
 pub mod world;
 
 pub use ce::optimize::{
-    CeConfig, CeResult, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE, clock_policy,
-    optimize, random_policy, uniform_policy,
+    CeConfig, CeResult, DEFAULT_LEVELS, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE,
+    clock_policy, optimize, random_policy, uniform_policy,
 };
 pub use control::{Flow, thread_pool};
 pub use error::{Error, Result};

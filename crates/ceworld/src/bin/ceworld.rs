@@ -74,19 +74,19 @@ enum Command {
 #[derive(clap::Args)]
 struct WindowArgs {
     /// Steps per window (the paper: 100).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = WindowConfig::default().window)]
     window: usize,
     /// (a) Windows from the initial state: one per fresh start of the world.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = WindowConfig::default().episodes)]
     episodes: usize,
     /// (b) Independent continuing runs, each from a fresh start.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = WindowConfig::default().chains)]
     chains: usize,
     /// (b) Steps each continuing run makes before its first window.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = WindowConfig::default().burn_in)]
     burn_in: u64,
     /// (b) Consecutive windows per continuing run after the burn-in.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = WindowConfig::default().windows_per_chain)]
     windows_per_chain: usize,
     /// Seed of the evaluation runs.
     #[arg(long, default_value_t = 0)]
@@ -136,7 +136,7 @@ struct QlearnArgs {
     alpha: f64,
     /// How greedy ties are broken, in learning and in the evaluated greedy policy: "random"
     /// (uniform among the best actions) or "lowest" (the lowest index).
-    #[arg(long, default_value = "random", value_parser = ["random", "lowest"])]
+    #[arg(long, default_value = Ties::Random.as_str(), value_parser = ["random", "lowest"])]
     ties: String,
     /// Where to save the learnt table (binary: a JSON header, then little-endian f32 values).
     #[arg(long, default_value = "qtable.bin", value_name = "FILE")]
@@ -145,7 +145,7 @@ struct QlearnArgs {
     #[arg(long, value_name = "FILE")]
     checkpoint: Option<PathBuf>,
     /// Seconds between two checkpoints.
-    #[arg(long, default_value_t = 600.0, value_name = "SECONDS")]
+    #[arg(long, default_value_t = ceworld::qlearn::CHECKPOINT_EVERY, value_name = "SECONDS")]
     checkpoint_every: f64,
     /// Continue the run saved in the checkpoint file.
     #[arg(long, conflicts_with = "overwrite")]
@@ -418,20 +418,20 @@ struct OptimizeArgs {
     #[arg(long = "param", value_name = "KEY=VALUE")]
     params: Vec<String>,
     /// Memory sizes per level, bottom first: 16 is a memoryless policy, 16,16 an IO-HMM.
-    #[arg(long, default_value = "16,16", value_delimiter = ',')]
+    #[arg(long, default_values_t = ceworld::DEFAULT_LEVELS, value_delimiter = ',')]
     levels: Vec<usize>,
     /// Episodes per iteration (N).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = CeConfig::default().samples)]
     samples: usize,
     /// Selective rate: the best ceil(rho*N) episodes refit the tables; 0 < rho < 1.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = CeConfig::default().rho)]
     rho: f64,
     /// Smoothing alpha in (0, 1]: h := alpha*new + (1-alpha)*h (1 = the paper's basic CE).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = CeConfig::default().smoothing)]
     smoothing: f64,
     /// Stop after this many unsuccessful iterations in a row (the paper's weak criterion is
     /// 100, its strong criterion 500).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = CeConfig::default().patience)]
     patience: usize,
     /// Stop after this many iterations.
     #[arg(long)]
@@ -449,12 +449,12 @@ struct OptimizeArgs {
     #[arg(long)]
     threads: Option<usize>,
     /// Fresh episodes used to evaluate the result.
-    #[arg(long, default_value_t = 10_000)]
+    #[arg(long, default_value_t = CeConfig::default().eval_episodes)]
     eval_episodes: usize,
     /// How the elite's memory is counted: "sampled" (the paper: the memory states that were
     /// drawn) or "forward-backward" (their posterior expectation given the episode's
     /// observations and decisions; at most 2 levels).
-    #[arg(long, default_value = "sampled", value_name = "sampled|forward-backward")]
+    #[arg(long, default_value = ceworld::MemoryUpdate::Sampled.as_str(), value_name = "sampled|forward-backward")]
     memory_update: ceworld::MemoryUpdate,
     /// Start from a clock: the memory counts the steps and h0 becomes a time-indexed plan
     /// (needs two equal levels, e.g. --levels 100,100).
@@ -462,7 +462,7 @@ struct OptimizeArgs {
     clock_init: bool,
     /// Independent runs; the best, chosen on separate episodes, is kept (the first run uses
     /// --seed, the others seeds derived from it).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = CeConfig::default().restarts)]
     restarts: usize,
     /// Start from random tables (drawn from the seed) instead of uniform ones.
     #[arg(long)]

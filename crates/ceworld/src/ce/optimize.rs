@@ -60,7 +60,7 @@ pub enum MemoryUpdate {
 
 impl MemoryUpdate {
     /// `"sampled"` or `"forward-backward"`.
-    pub fn as_str(self) -> &'static str {
+    pub const fn as_str(self) -> &'static str {
         match self {
             MemoryUpdate::Sampled => "sampled",
             MemoryUpdate::ForwardBackward => "forward-backward",
@@ -112,6 +112,10 @@ enum Counts {
     Integer(Vec<u32>),
     Real(Vec<f64>),
 }
+
+/// The memory sizes used when none are given: `[16, 16]`, an input/output HMM of the paper's
+/// table.
+pub const DEFAULT_LEVELS: [usize; 2] = [16, 16];
 
 /// The paper's weak convergence criterion: 100 unsuccessful iterations in a row.
 pub const WEAK_PATIENCE: usize = 100;

@@ -77,6 +77,8 @@ pub const VERSION: u64 = 1;
 pub const MAGIC: &[u8; 8] = b"CEQTABLE";
 /// Updates run between two progress reports (and stop, checkpoint checks) by [`QLearner::train`].
 pub const CHUNK: u64 = 1 << 20;
+/// Seconds between two checkpoints of a long run, unless told otherwise.
+pub const CHECKPOINT_EVERY: f64 = 600.0;
 
 /// A world that can run as a continuing task: stepped forever, each step paying its own reward.
 pub trait ContinuingWorld: World {
@@ -115,7 +117,7 @@ pub enum Ties {
 
 impl Ties {
     /// `"random"` or `"lowest"`.
-    pub fn as_str(self) -> &'static str {
+    pub const fn as_str(self) -> &'static str {
         match self {
             Ties::Random => "random",
             Ties::Lowest => "lowest",
