@@ -369,6 +369,44 @@ fn bad_parameters_are_refused_by_name() {
 }
 
 #[test]
+fn parameters_are_checked_at_their_bounds() {
+    let ok = |p: TrackingParams| TargetTracking::with_params(p).is_ok();
+    let d = TrackingParams::default;
+    assert!(ok(TrackingParams { horizon: 1_000_000, ..d() }));
+    assert!(!ok(TrackingParams { horizon: 1_000_001, ..d() }));
+    assert!(ok(TrackingParams { horizon: 1, ..d() }));
+    assert!(ok(TrackingParams { start_heading: 3, ..d() }));
+    assert!(!ok(TrackingParams { start_heading: 4, ..d() }));
+    for radius in ["reward_radius", "observe_radius"] {
+        let with = |v: i32| {
+            let mut p = d();
+            if radius == "reward_radius" {
+                p.reward_radius = v;
+            } else {
+                p.observe_radius = v;
+            }
+            p
+        };
+        assert!(ok(with(0)), "{radius} 0");
+        assert!(!ok(with(-1)), "{radius} -1");
+    }
+    assert!(ok(TrackingParams {
+        width: 4096,
+        height: 1,
+        start_b: [0, 0],
+        start_c: [1, 0],
+        target_cell: [2, 0],
+        target_rows: [0, 0],
+        ..d()
+    }));
+    assert!(!ok(TrackingParams { width: 4097, ..d() }));
+    assert!(!ok(TrackingParams { height: 0, ..d() }));
+    assert!(ok(TrackingParams { target_rows: [19, 19], ..d() }));
+    assert!(!ok(TrackingParams { target_rows: [0, 20], ..d() }));
+    assert!(!ok(TrackingParams { target_rows: [-1, 3], ..d() }));
+}
+
+#[test]
 fn world_json_round_trips() {
     let p = TrackingParams { case: 2, horizon: 50, target_rows: [0, 4], ..TrackingParams::default() };
     let w = TargetTracking::with_params(p).unwrap();
