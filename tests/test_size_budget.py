@@ -15,7 +15,6 @@ BUDGET = 600
 #: Over the budget when it was set: path -> the most lines it may have until it is split.
 OVER_BUDGET = {
     "crates/cehmm-py/src/lib.rs": 892,
-    "crates/ceworld/src/bin/ceworld.rs": 643,
     "python/cehmm/reproduce.py": 1135,
 }
 

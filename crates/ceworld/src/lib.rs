@@ -37,6 +37,7 @@ pub use qlearn::{
     evaluate_windows,
 };
 pub use world::World;
+pub use world::registry::AnyWorld;
 pub use world::tracking::{TargetTracking, TrackingParams};
 
 /// The engine's version, written into policy files.

@@ -73,7 +73,11 @@ fn bad_arguments_are_named() {
     fails_with(&["optimize", "--levels", "16,0"], &["levels", "level 2 has size 0"]);
     fails_with(&["optimize", "--smoothing", "0"], &["smoothing"]);
     fails_with(&["optimize", "--case", "4"], &["case", "expected 1, 2 or 3"]);
-    fails_with(&["optimize", "--param", "bogus=1"], &["unknown key \"bogus\""]);
+    fails_with(&["optimize", "--param", "bogus=1"], &["unknown parameter \"bogus\""]);
+    fails_with(&["optimize", "--case", "3", "--param", "case=2"], &["--case", "give it once"]);
+    fails_with(&["optimize", "--param", "horizon=5", "--param", "horizon=6"], &["horizon given twice"]);
+    fails_with(&["optimize", "--world", "tiger"], &["\"tiger\"", "target-tracking"]);
+    fails_with(&["optimum", "--case", "2"], &["case 1 only"]);
     fails_with(&["optimize", "--param", "start_b=[30,0]"], &["start_b", "off the"]);
     fails_with(&["evaluate", "/nonexistent/p.json"], &["/nonexistent/p.json"]);
     // clap's own errors (not a number) also exit with code 2

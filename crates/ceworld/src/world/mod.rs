@@ -3,6 +3,7 @@
 
 use crate::rng::EngineRng;
 
+pub mod registry;
 pub mod tracking;
 
 /// An episodic world that the optimiser can sample.
@@ -38,4 +39,9 @@ pub trait World: Sync {
     fn describe(&self, _state: &Self::State, _out: &mut Vec<i64>) {}
     /// The world's name and every parameter, as stored in policy files (model §6).
     fn to_json(&self) -> serde_json::Value;
+
+    /// The best mean reward any policy can reach, where the world knows it exactly.
+    fn exact_optimum(&self) -> crate::Result<f64> {
+        Err(crate::Error::invalid("world", format!("{} (no exact optimum is known for this world)", self.to_json())))
+    }
 }

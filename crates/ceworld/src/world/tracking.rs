@@ -415,6 +415,11 @@ impl World for TargetTracking {
         );
     }
 
+    /// Known for case 1 (fixed target): see [`TargetTracking::case1_optimum`].
+    fn exact_optimum(&self) -> Result<f64> {
+        self.case1_optimum().map(f64::from)
+    }
+
     fn to_json(&self) -> serde_json::Value {
         let mut value = serde_json::to_value(&self.params).expect("parameters serialise");
         value.as_object_mut().expect("an object").insert("name".into(), Self::NAME.into());

@@ -1,0 +1,144 @@
+//! The registry of worlds: a world's name, as written in policy files (model §6) and on the
+//! command line, mapped to its constructor. Everything above the core reaches worlds through it.
+//!
+//! Adding a world: its file in `world/`, then here one variant of [`AnyWorld`], one row of
+//! [`REGISTRY`] and one arm of [`with_world!`](crate::with_world).
+
+use serde_json::{Map, Value};
+
+use crate::error::{Error, Result};
+use crate::world::World;
+use crate::world::tracking::{TargetTracking, TrackingParams};
+
+/// Any registered world (the world's type, known at run time).
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnyWorld {
+    /// The paper's target-tracking world (model §4).
+    TargetTracking(TargetTracking),
+}
+
+/// One registered world.
+pub struct Entry {
+    /// The name in policy files and on the command line.
+    pub name: &'static str,
+    /// One line for listings.
+    pub summary: &'static str,
+    /// Every parameter with its default, as a JSON object (without `"name"`).
+    pub defaults: fn() -> Map<String, Value>,
+    /// The world from a complete parameter object, checked.
+    pub build: fn(&Map<String, Value>) -> Result<AnyWorld>,
+}
+
+/// Every registered world.
+pub const REGISTRY: &[Entry] = &[Entry {
+    name: TargetTracking::NAME,
+    summary: "two mobiles track an evasive target on a grid (the paper's section 5; model §4)",
+    defaults: || object(serde_json::to_value(TrackingParams::default()).expect("parameters serialise")),
+    build: |params| {
+        let params: TrackingParams = serde_json::from_value(Value::Object(params.clone()))
+            .map_err(|e| Error::invalid("world", format!("{}: {e}", TargetTracking::NAME)))?;
+        Ok(AnyWorld::TargetTracking(TargetTracking::with_params(params)?))
+    },
+}];
+
+fn object(value: Value) -> Map<String, Value> {
+    match value {
+        Value::Object(map) => map,
+        _ => unreachable!("world parameters serialise to an object"),
+    }
+}
+
+/// The registry's entry for `name`, or an error listing the names there are.
+pub fn entry(name: &str) -> Result<&'static Entry> {
+    REGISTRY.iter().find(|e| e.name == name).ok_or_else(|| {
+        let names: Vec<&str> = REGISTRY.iter().map(|e| e.name).collect();
+        Error::invalid("world", format!("{name:?} (expected one of {names:?})"))
+    })
+}
+
+impl AnyWorld {
+    /// The world `name` with its defaults overridden by `params` (an unknown key is an error).
+    pub fn with_params(name: &str, params: &Map<String, Value>) -> Result<AnyWorld> {
+        let entry = entry(name)?;
+        let mut all = (entry.defaults)();
+        for (key, value) in params {
+            if !all.contains_key(key) {
+                let known: Vec<&String> = all.keys().collect();
+                return Err(Error::invalid(
+                    "world",
+                    format!("{name}: unknown parameter {key:?} (expected one of {known:?})"),
+                ));
+            }
+            all.insert(key.clone(), value.clone());
+        }
+        (entry.build)(&all)
+    }
+
+    /// The world of a policy file's `"world"` object: its `"name"` and its parameters (missing
+    /// ones take their defaults; unknown ones are an error).
+    pub fn from_json(value: &Value) -> Result<AnyWorld> {
+        let Some(map) = value.as_object() else {
+            return Err(Error::invalid("world", format!("{value} (expected an object with a \"name\")")));
+        };
+        let Some(name) = map.get("name").and_then(Value::as_str) else {
+            return Err(Error::invalid("world.name", "missing (expected the world's name, e.g. \"target-tracking\")"));
+        };
+        let mut params = map.clone();
+        params.remove("name");
+        Self::with_params(name, &params)
+    }
+
+    /// The world's name and every parameter, as stored in policy files.
+    pub fn to_json(&self) -> Value {
+        crate::with_world!(self, w => w.to_json())
+    }
+}
+
+/// Runs `$body` with `$w` bound to the concrete world inside an [`AnyWorld`], so that generic
+/// code (`fn f<W: World>(world: &W)`) runs on any registered world.
+#[macro_export]
+macro_rules! with_world {
+    ($world:expr, $w:ident => $body:expr) => {
+        match $world {
+            $crate::world::registry::AnyWorld::TargetTracking($w) => $body,
+        }
+    };
+}
+
+/// The names of the registered worlds.
+pub fn names() -> Vec<&'static str> {
+    REGISTRY.iter().map(|e| e.name).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn worlds_are_found_by_name_and_rebuilt_from_their_json() {
+        let mut params = Map::new();
+        params.insert("case".into(), 2.into());
+        params.insert("horizon".into(), 50.into());
+        let world = AnyWorld::with_params("target-tracking", &params).unwrap();
+        let json = world.to_json();
+        assert_eq!(
+            (&json["name"], &json["case"], &json["horizon"], &json["width"]),
+            (&"target-tracking".into(), &2.into(), &50.into(), &20.into())
+        );
+        assert_eq!(AnyWorld::from_json(&world.to_json()).unwrap(), world);
+        assert_eq!(crate::with_world!(&world, w => w.horizon()), 50);
+        assert_eq!(names(), ["target-tracking"]);
+    }
+
+    #[test]
+    fn unknown_names_and_parameters_are_refused_by_name() {
+        let e = AnyWorld::with_params("tiger", &Map::new()).unwrap_err().to_string();
+        assert!(e.contains("\"tiger\"") && e.contains("target-tracking"), "{e}");
+        let mut params = Map::new();
+        params.insert("speed".into(), 2.into());
+        let e = AnyWorld::with_params("target-tracking", &params).unwrap_err().to_string();
+        assert!(e.contains("unknown parameter \"speed\""), "{e}");
+        let e = AnyWorld::from_json(&serde_json::json!({"case": 3})).unwrap_err().to_string();
+        assert!(e.contains("world.name"), "{e}");
+    }
+}
