@@ -289,6 +289,14 @@ fn case_1_optimal_plan_replayed_through_the_world_scores_86() {
     assert_eq!(w.reward(&s), 86.0);
     assert_eq!(first_reward, Some(14), "14 moves, then every step is rewarded");
     assert!(w.encounter(&s), "the mobile stays in the zone");
+    assert!(plan[14..].iter().all(|&d| d == 4 * NO_MOVE + NO_MOVE), "then both mobiles stay put");
+    // A target on the top row, to be reached exactly (radius 0): B turns left (to face right),
+    // goes 5 cells right, turns left (up) and climbs 19 rows: 26 moves, so 74 rewarded steps.
+    let p = TrackingParams { case: 1, target_cell: [5, 0], reward_radius: 0, ..TrackingParams::default() };
+    let top = TargetTracking::with_params(p).unwrap();
+    assert_eq!(top.case1_optimum().unwrap(), 74);
+    let plan = top.case1_optimal_plan().unwrap();
+    assert_eq!(plan[..2], [4 * TURN_LEFT + NO_MOVE, 4 * FORWARD + NO_MOVE]);
 }
 
 #[test]
