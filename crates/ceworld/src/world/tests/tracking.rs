@@ -165,6 +165,31 @@ fn moving_target_starts_uniform_on_the_upper_half() {
     assert!(chi2 < 270.0, "chi2 = {chi2} on 199 degrees of freedom (0.9995 quantile ~ 270)");
 }
 
+#[test]
+fn moving_target_starts_on_the_rows_asked_for() {
+    // Rows 2..=5 of an 8-column grid: 32 cells, each drawn about 1/32 of the time.
+    let p = TrackingParams {
+        width: 8,
+        height: 8,
+        start_b: [0, 7],
+        start_c: [7, 7],
+        target_cell: [4, 4],
+        target_rows: [2, 5],
+        ..TrackingParams::default()
+    };
+    let w = TargetTracking::with_params(p).unwrap();
+    let mut counts = [0u32; 32];
+    let n = 64_000;
+    for k in 0..n {
+        let s = w.reset(&mut stream(2, Purpose::Optimise, 0, k));
+        assert!((0..8).contains(&s.target[0]) && (2..=5).contains(&s.target[1]), "{:?}", s.target);
+        counts[((s.target[1] - 2) * 8 + s.target[0]) as usize] += 1;
+    }
+    let expected = f64::from(n as u32) / 32.0;
+    let chi2: f64 = counts.iter().map(|&c| (f64::from(c) - expected).powi(2) / expected).sum();
+    assert!(chi2 < 61.1, "chi2 = {chi2} on 31 degrees of freedom (0.999 quantile 61.1)");
+}
+
 /// Expected move probabilities of the target, from the rule of model §4.
 fn move_law(target: [i32; 2], b: [i32; 2], c: [i32; 2]) -> Vec<([i32; 2], f64)> {
     let mut cells = Vec::new();
