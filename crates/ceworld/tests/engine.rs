@@ -651,3 +651,12 @@ fn forward_backward_counts_equal_sampled_counts_when_the_memory_is_determined() 
     }
     assert_ne!(sampled.table(0), ceworld::clock_policy(&world, &[6, 6]).unwrap().table(0), "the update changed h0");
 }
+
+#[test]
+fn a_world_describes_nothing_unless_it_says_so() {
+    let world = Sum { horizon: 1, n_obs: 1, n_decisions: 2 };
+    assert!(world.state_labels().is_empty());
+    let mut out = vec![7];
+    world.describe(&1.0, &mut out);
+    assert_eq!(out, [7]);
+}

@@ -447,3 +447,30 @@ fn world_json_round_trips() {
     assert_eq!(v["name"], "target-tracking");
     assert_eq!(TargetTracking::from_json(&v).unwrap(), w);
 }
+
+#[test]
+fn with_equally_near_mobiles_the_plan_moves_b() {
+    // A 21-wide grid, the target in the middle column: B and C are mirror images, equally near.
+    let p = TrackingParams {
+        case: 1,
+        width: 21,
+        height: 21,
+        start_b: [0, 20],
+        start_c: [20, 20],
+        target_cell: [10, 10],
+        ..TrackingParams::default()
+    };
+    let plan = TargetTracking::with_params(p).unwrap().case1_optimal_plan().unwrap();
+    assert_eq!(plan[0] % 4, NO_MOVE, "C stays put: {:?}", &plan[..4]);
+    assert_ne!(plan[0] / 4, NO_MOVE, "B moves: {:?}", &plan[..4]);
+}
+
+#[test]
+fn state_labels_name_what_describe_writes() {
+    let w = world(3);
+    let mut out = Vec::new();
+    let s = state((1, 2, UP), (3, 4, LEFT), [5, 6]);
+    w.describe(&s, &mut out);
+    assert_eq!(w.state_labels(), ["b_i", "b_j", "b_heading", "c_i", "c_j", "c_heading", "target_i", "target_j"]);
+    assert_eq!(out, [1, 2, i64::from(UP), 3, 4, i64::from(LEFT), 5, 6]);
+}
