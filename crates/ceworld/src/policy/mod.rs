@@ -519,6 +519,13 @@ mod tests {
         assert_eq!(pick(&row, 0, 2, 1 << 31), 1);
         // High bits 2^31 pick column 1 (always kept, even with the largest low bits).
         assert_eq!(pick(&row, 0, 2, (1 << 63) | u64::from(u32::MAX)), 1);
+        // Weights 0.5, 1 and 1.5 (scaled exactly so): the column of scaled weight 1, and the one
+        // brought down to exactly 1 by pairing, keep themselves even for the largest low bits.
+        let row = alias_row(&[0.5, 1.0, 1.5]);
+        assert_eq!(pick(&row, 0, 3, (0x5555_5556 << 32) | u64::from(u32::MAX)), 1);
+        assert_eq!(pick(&row, 0, 3, (0xAAAA_AAAB << 32) | u64::from(u32::MAX)), 2);
+        assert_eq!(pick(&row, 0, 3, 1 << 30), 0);
+        assert_eq!(pick(&row, 0, 3, (1 << 31) | 1), 2);
         // A zero-probability column is never drawn, even with low bits 0.
         let hot = alias_row(&[0.0, 1.0, 0.0]);
         for x in [0, u64::from(u32::MAX), u64::MAX, 1 << 63] {
