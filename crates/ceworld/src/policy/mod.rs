@@ -456,6 +456,13 @@ mod tests {
         let (p, sd) = (1.0 / 6.0, (1.0 / 6.0 * 5.0 / 6.0 / n as f64).sqrt());
         let f = low as f64 / n as f64;
         assert!((f - p).abs() < 4.0 * sd, "P(p0 < 1/4) = {f}, expected {p} ± {}", 4.0 * sd);
+        // Rows of three: p0 > 0.6 when u1 + u2 < 2·u0/3, which has probability 2/27 (the law of
+        // the normalised draws, not only their ratios).
+        let h = Hhmm::random(1, 3, &[n], &mut stream(6, Purpose::Init, 0, 0)).unwrap();
+        let high = h.table(0).chunks(3).filter(|row| row[0] > 0.6).count();
+        let (p, sd) = (2.0 / 27.0, (2.0 / 27.0 * 25.0 / 27.0 / n as f64).sqrt());
+        let f = high as f64 / n as f64;
+        assert!((f - p).abs() < 4.0 * sd, "P(p0 > 0.6) = {f}, expected {p} ± {}", 4.0 * sd);
     }
 
     #[test]
