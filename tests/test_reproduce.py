@@ -196,3 +196,19 @@ def test_report_only_replays_a_job_whose_policy_is_gone(tmp_path, capsys):
         )
     ):
         assert (img / f"{name}.png").stat().st_size > 1000, name
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        [],
+        ["--settings", "tuned", "--report", "docs/results-tuned.md", "--img-dir", "docs/img/tuned"],
+    ],
+    ids=["paper", "tuned"],
+)
+def test_committed_reports_are_what_the_committed_data_gives(args, monkeypatch, capsys):
+    # A fresh clone rebuilds docs/results.md and docs/results-tuned.md from docs/data/reproduce.jsonl,
+    # byte for byte (the figures are not compared: matplotlib's output varies with its version).
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    code = reproduce.main(["--report-only", "--check", *args])
+    assert code == 0, capsys.readouterr().err
