@@ -50,15 +50,8 @@ enum Command {
     },
     /// Print the exact optimum of a world (known for case 1, fixed target).
     Optimum {
-        /// The world, by its name in the registry.
-        #[arg(long, default_value = ceworld::world::tracking::TargetTracking::NAME)]
-        world: String,
-        /// Target tracking's case (the exact optimum is known for case 1).
-        #[arg(long)]
-        case: Option<u8>,
-        /// A world parameter KEY=VALUE (repeatable), e.g. --param `target_cell`=[5,5].
-        #[arg(long = "param", value_name = "KEY=VALUE")]
-        params: Vec<String>,
+        #[command(flatten)]
+        world: WorldArgs,
     },
     /// Learn a Q table by Q-learning, the paper's baseline (model §5): the state is the last
     /// observation and both mobiles' cells and headings, the task continuing (never reset).
@@ -74,20 +67,28 @@ enum Command {
     QlearnEval(QlearnEvalArgs),
 }
 
+/// Which world: a name of the registry and its parameters.
 #[derive(clap::Args)]
-struct OptimizeArgs {
+pub(crate) struct WorldArgs {
     /// The world, by its name in the registry (`target-tracking`: the paper's; its parameters
     /// are --case and --param).
     #[arg(long, default_value = ceworld::world::tracking::TargetTracking::NAME)]
     world: String,
     /// Target tracking's case: 1 fixed target, 2 moving target unobserved, 3 moving target
-    /// observed (default: the world's, 3).
+    /// observed (default: the world's, 3; the exact optimum is known for case 1).
     #[arg(long)]
     case: Option<u8>,
-    /// A world parameter KEY=VALUE (repeatable): width, height, horizon, `start_b`, `start_c`,
-    /// `start_heading`, `reward_radius`, `observe_radius`, `target_cell`, `target_rows`; lists as [a,b].
+    /// A world parameter KEY=VALUE (repeatable): for target tracking width, height, horizon,
+    /// `start_b`, `start_c`, `start_heading`, `reward_radius`, `observe_radius`, `target_cell`,
+    /// `target_rows`; lists as [a,b].
     #[arg(long = "param", value_name = "KEY=VALUE")]
     params: Vec<String>,
+}
+
+#[derive(clap::Args)]
+struct OptimizeArgs {
+    #[command(flatten)]
+    world: WorldArgs,
     /// Memory sizes per level, bottom first: 16 is a memoryless policy, 16,16 an IO-HMM.
     #[arg(long, default_values_t = ceworld::DEFAULT_LEVELS, value_delimiter = ',')]
     levels: Vec<usize>,
@@ -151,7 +152,8 @@ struct OptimizeArgs {
 
 /// The world `name` of the registry with `--case` (target tracking's case) and every
 /// `--param KEY=VALUE` over its defaults; giving the case twice is refused.
-fn world_from(name: &str, case: Option<u8>, params: &[String]) -> Result<AnyWorld> {
+pub(crate) fn world_from(args: &WorldArgs) -> Result<AnyWorld> {
+    let (name, case, params) = (args.world.as_str(), args.case, &args.params);
     let mut map = serde_json::Map::new();
     for p in params {
         let (key, raw) = p
@@ -172,7 +174,7 @@ fn world_from(name: &str, case: Option<u8>, params: &[String]) -> Result<AnyWorl
 }
 
 fn run_optimize(args: &OptimizeArgs) -> Result<()> {
-    let world = world_from(&args.world, args.case, &args.params)?;
+    let world = world_from(&args.world)?;
     ceworld::with_world!(&world, w => optimize_in(w, args))
 }
 
@@ -301,8 +303,8 @@ fn run() -> Result<()> {
             );
             Ok(())
         }
-        Command::Optimum { world, case, params } => {
-            let world = world_from(&world, case, &params)?;
+        Command::Optimum { world } => {
+            let world = world_from(&world)?;
             println!("{}", ceworld::with_world!(&world, w => w.exact_optimum())?);
             Ok(())
         }

@@ -16,7 +16,7 @@ use ceworld::{
     evaluate_windows,
 };
 
-use super::world_from;
+use super::{WorldArgs, world_from};
 
 /// How windows are drawn for the paper's comparison.
 #[derive(clap::Args)]
@@ -62,18 +62,10 @@ impl WindowArgs {
 #[derive(clap::Args)]
 #[allow(clippy::struct_excessive_bools)] // command-line flags
 pub(crate) struct QlearnArgs {
-    /// The world, by its name in the registry (`target-tracking`: the paper's; its parameters
-    /// are --case and --param).
-    #[arg(long, default_value = ceworld::world::tracking::TargetTracking::NAME)]
-    world: String,
-    /// Target tracking's case: 1 fixed target, 2 moving target unobserved, 3 moving target
-    /// observed (default: the world's, 3).
-    #[arg(long)]
-    case: Option<u8>,
-    /// A world parameter KEY=VALUE (repeatable), as for `optimize`; e.g. --param width=5
-    /// --param height=5 --param `start_b`=[0,4] --param `start_c`=[4,4] for a small table.
-    #[arg(long = "param", value_name = "KEY=VALUE")]
-    params: Vec<String>,
+    /// The world (e.g. --param width=5 --param height=5 --param `start_b`=[0,4] --param
+    /// `start_c`=[4,4] for a small table).
+    #[command(flatten)]
+    world: WorldArgs,
     /// Total number of updates (steps) of the run, e.g. 1e9; with --resume the run goes on
     /// until the table has this many.
     #[arg(long, default_value = "1e9", value_parser = parse_count)]
@@ -213,7 +205,7 @@ fn open_learner(
 pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
     // Q-learning needs a world whose state it can index (`KnownState`): target tracking.
     #[allow(unreachable_patterns)]
-    let world = match world_from(&args.world, args.case, &args.params)? {
+    let world = match world_from(&args.world)? {
         AnyWorld::TargetTracking(world) => world,
         other => {
             return Err(Error::invalid(
