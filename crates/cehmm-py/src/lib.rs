@@ -11,9 +11,7 @@
 
 mod defaults;
 
-use std::io::Write;
 use std::path::PathBuf;
-use std::time::Instant;
 
 use numpy::ndarray::{Array2, ArrayD, IxDyn};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
@@ -25,9 +23,8 @@ use serde_json::{Value, json};
 
 use ceworld::ce::episode::run_with;
 use ceworld::evaluate::check_fits;
-use ceworld::qlearn::{
-    Greedy, KnownState, QConfig, QLearner, QProgress, Ties, WindowConfig, WindowReport, evaluate_windows,
-};
+use ceworld::progress::{CeProgress, LiveLine};
+use ceworld::qlearn::{Greedy, KnownState, QConfig, QLearner, Ties, WindowConfig, WindowReport, evaluate_windows};
 use ceworld::rng::{Purpose, stream};
 use ceworld::thread_pool;
 use ceworld::{
@@ -483,52 +480,6 @@ impl PyPolicy {
     }
 }
 
-/// The live progress line on stderr: at most ten updates a second, then a final newline.
-struct Progress {
-    patience: usize,
-    best: (f64, usize),
-    since: usize,
-    last_print: Option<Instant>,
-    pending: Option<IterationRecord>,
-}
-
-impl Progress {
-    fn new(patience: usize) -> Self {
-        Progress { patience, best: (f64::NEG_INFINITY, 0), since: 0, last_print: None, pending: None }
-    }
-
-    fn update(&mut self, r: &IterationRecord) {
-        if r.successful {
-            self.best = (r.mean, r.iteration);
-            self.since = 0;
-        } else {
-            self.since += 1;
-        }
-        self.pending = Some(r.clone());
-        if self.last_print.is_none_or(|t| t.elapsed().as_millis() >= 100) {
-            self.print();
-        }
-    }
-
-    fn print(&mut self) {
-        if let Some(r) = self.pending.take() {
-            self.last_print = Some(Instant::now());
-            eprint!(
-                "\r\x1b[Kiter {:>5}  mean {:>7.2}  elite>= {:>6.1}  best mean {:>7.2} (iter {})  no gain {:>3}/{}  {:>6.1}s",
-                r.iteration, r.mean, r.elite_threshold, self.best.0, self.best.1, self.since, self.patience, r.seconds
-            );
-            let _ = std::io::stderr().flush();
-        }
-    }
-
-    fn finish(mut self) {
-        self.print();
-        if self.last_print.is_some() {
-            eprintln!();
-        }
-    }
-}
-
 /// Runs the cross-entropy method (model §3) from `initial`; Ctrl-C stops it between iterations
 /// and the result comes back marked interrupted.
 #[pyfunction]
@@ -574,7 +525,7 @@ fn optimize<'py>(
     let initial = initial.file.policy.clone();
     let result = py
         .detach(|| {
-            let mut line = progress.then(|| Progress::new(config.patience));
+            let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
             let result = ceworld::optimize(world, initial, &config, |record| {
                 if let Some(line) = &mut line {
                     line.update(record);
@@ -714,23 +665,19 @@ impl PyQLearner {
         let learner = &mut self.learner;
         let outcome = py
             .detach(|| {
-                let mut last_print: Option<Instant> = None;
-                let mut last: Option<QProgress> = None;
+                let mut line = progress.then(LiveLine::stderr);
                 let outcome = learner.train(until, checkpoint.as_deref(), checkpoint_every, |p| {
-                    if progress && last_print.is_none_or(|t| t.elapsed().as_millis() >= 250) {
-                        last_print = Some(Instant::now());
-                        eprint!("\r\x1b[K{}", p.line());
-                        let _ = std::io::stderr().flush();
+                    if let Some(line) = &mut line {
+                        line.update(p.line());
                     }
-                    last = Some(p.clone());
                     // A pending KeyboardInterrupt is consumed here: the caller gets the run so far.
                     match Python::attach(|py| py.check_signals()) {
                         Ok(()) => Flow::Continue,
                         Err(_) => Flow::Stop,
                     }
                 });
-                if let (true, Some(p)) = (progress, last) {
-                    eprintln!("\r\x1b[K{}", p.line());
+                if let Some(line) = line {
+                    line.finish();
                 }
                 outcome
             })

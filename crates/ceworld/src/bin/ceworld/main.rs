@@ -2,13 +2,13 @@
 
 mod qlearn;
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use ceworld::progress::{CeProgress, LiveLine};
 use clap::{Parser, Subcommand};
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
@@ -224,41 +224,26 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
             config.seed
         );
     }
-    let mut best_mean = f64::NEG_INFINITY;
-    let mut best_iteration = 0;
-    let mut since = 0;
-    let mut last_print = Instant::now();
+    let mut progress = (!args.quiet).then(|| CeProgress::new(config.patience, LiveLine::stderr()));
     let mut runs = 0;
     let result = optimize(world, initial, &config, |r| {
-        if r.iteration == 0 {
-            runs += 1;
-            if runs > 1 && !args.quiet {
-                eprintln!("\nrestart {} of {}", runs, config.restarts);
+        if let Some(progress) = &mut progress {
+            if r.iteration == 0 {
+                runs += 1;
+                if runs > 1 {
+                    progress.note(&format!("restart {} of {}", runs, config.restarts));
+                }
             }
-        }
-        if r.successful {
-            best_mean = r.mean;
-            best_iteration = r.iteration;
-            since = 0;
-        } else {
-            since += 1;
-        }
-        if !args.quiet && (last_print.elapsed().as_millis() >= 100 || r.iteration == 0) {
-            last_print = Instant::now();
-            eprint!(
-                "\r\x1b[Kiter {:>5}  mean {:>7.2}  elite>= {:>6.1}  best mean {:>7.2} (iter {})  no gain {:>3}/{}  {:>6.1}s",
-                r.iteration, r.mean, r.elite_threshold, best_mean, best_iteration, since, config.patience, r.seconds
-            );
-            let _ = std::io::stderr().flush();
+            progress.update(r);
         }
         if stop.load(Ordering::SeqCst) { Flow::Stop } else { Flow::Continue }
     })?;
+    if let Some(progress) = progress {
+        progress.finish();
+    }
     let file = PolicyFile::from_result(world, &result, &config);
     file.save(&args.out)?;
     let e = &result.evaluation;
-    if !args.quiet {
-        eprintln!();
-    }
     if config.restarts > 1 {
         println!("best of {} restarts: restart {}", config.restarts, result.restart);
     }

@@ -1,7 +1,6 @@
 //! `ceworld qlearn` and `ceworld qlearn-eval`: the paper's Q-learning baseline and the window
 //! comparison of policies.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -9,7 +8,8 @@ use std::time::Instant;
 
 use serde_json::Value;
 
-use ceworld::qlearn::{Greedy, PAPER_REFERENCE, QProgress, Ties, load_tracking, percent};
+use ceworld::progress::LiveLine;
+use ceworld::qlearn::{Greedy, PAPER_REFERENCE, Ties, load_tracking, percent};
 use ceworld::thread_pool;
 use ceworld::{
     AnyWorld, Error, Flow, PolicyFile, QConfig, QLearner, Result, TargetTracking, WindowConfig, WindowReport, World,
@@ -237,21 +237,15 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
             args.checkpoint_every
         );
     }
-    let mut last_print: Option<Instant> = None;
-    let mut last: Option<QProgress> = None;
+    let mut line = (!args.quiet).then(LiveLine::stderr);
     let outcome = learner.train(args.iterations, Some(&checkpoint), Some(args.checkpoint_every), |p| {
-        if !args.quiet && last_print.is_none_or(|t| t.elapsed().as_millis() >= 250) {
-            last_print = Some(Instant::now());
-            eprint!("\r\x1b[K{}", p.line());
-            let _ = std::io::stderr().flush();
+        if let Some(line) = &mut line {
+            line.update(p.line());
         }
-        last = Some(p.clone());
         if stop.load(Ordering::SeqCst) { Flow::Stop } else { Flow::Continue }
     })?;
-    if !args.quiet {
-        if let Some(p) = &last {
-            eprintln!("\r\x1b[K{}", p.line());
-        }
+    if let Some(line) = line {
+        line.finish();
     }
     if !outcome.interrupted && args.out != checkpoint {
         learner.save(&args.out)?;
