@@ -14,7 +14,7 @@ BUDGET = 600
 
 #: Over the budget when it was set: path -> the most lines it may have until it is split.
 OVER_BUDGET = {
-    "crates/cehmm-py/src/lib.rs": 892,
+    "crates/cehmm-py/src/lib.rs": 839,
     "python/cehmm/reproduce.py": 1135,
 }
 
