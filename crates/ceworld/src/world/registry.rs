@@ -21,8 +21,6 @@ pub enum AnyWorld {
 pub struct Entry {
     /// The name in policy files and on the command line.
     pub name: &'static str,
-    /// One line for listings.
-    pub summary: &'static str,
     /// Every parameter with its default, as a JSON object (without `"name"`).
     pub defaults: fn() -> Map<String, Value>,
     /// The world from a complete parameter object, checked.
@@ -32,7 +30,6 @@ pub struct Entry {
 /// Every registered world.
 pub const REGISTRY: &[Entry] = &[Entry {
     name: TargetTracking::NAME,
-    summary: "two mobiles track an evasive target on a grid (the paper's section 5; model §4)",
     defaults: || object(serde_json::to_value(TrackingParams::default()).expect("parameters serialise")),
     build: |params| {
         let params: TrackingParams = serde_json::from_value(Value::Object(params.clone()))
@@ -50,10 +47,10 @@ fn object(value: Value) -> Map<String, Value> {
 
 /// The registry's entry for `name`, or an error listing the names there are.
 pub fn entry(name: &str) -> Result<&'static Entry> {
-    REGISTRY.iter().find(|e| e.name == name).ok_or_else(|| {
-        let names: Vec<&str> = REGISTRY.iter().map(|e| e.name).collect();
-        Error::invalid("world", format!("{name:?} (expected one of {names:?})"))
-    })
+    REGISTRY
+        .iter()
+        .find(|e| e.name == name)
+        .ok_or_else(|| Error::invalid("world", format!("{name:?} (expected one of {:?})", names())))
 }
 
 impl AnyWorld {
