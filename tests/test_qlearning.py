@@ -160,7 +160,7 @@ def test_bad_arguments(grid5: cehmm.TargetTracking) -> None:
         cehmm.qlearning(grid5, iterations=1, alpha=0.0, progress=False)
     with pytest.raises(cehmm.InvalidArgumentError, match="iterations"):
         cehmm.qlearning(grid5, iterations=-1, progress=False)
-    with pytest.raises(cehmm.InvalidArgumentError, match="policy"):
-        cehmm.evaluate_windows("not a policy", grid5)
+    with pytest.raises(TypeError, match="policy"):
+        cehmm.evaluate_windows("not a policy", grid5)  # type: ignore[arg-type]
     with pytest.raises(TypeError):
         cehmm.QLearner(object())  # type: ignore[arg-type]

@@ -72,23 +72,26 @@ def test_unknown_parameter_is_named_with_the_valid_ones() -> None:
 
 
 @pytest.mark.parametrize(
-    ("params", "named"),
+    ("params", "named", "error"),
     [
-        ({"horizon": 0}, "horizon"),
-        ({"horizon": -3}, "horizon"),
-        ({"horizon": 1.5}, "horizon"),
-        ({"width": True}, "width"),
-        ({"start_b": [25, 0]}, "start_b"),
-        ({"start_b": [1]}, "start_b"),
-        ({"start_b": "ab"}, "start_b"),
-        ({"target_rows": [9, 0]}, "target_rows"),
-        ({"start_heading": 4}, "start_heading"),
-        ({"case": "3"}, "case"),
+        ({"horizon": 0}, "horizon: 0", cehmm.InvalidArgumentError),
+        ({"horizon": -3}, "horizon: -3", cehmm.InvalidArgumentError),
+        ({"horizon": 1.5}, r"horizon: 1\.5 is a float \(expected an int\)", TypeError),
+        ({"width": True}, r"width: true is a bool \(expected an int\)", TypeError),
+        ({"start_b": [25, 0]}, "start_b", cehmm.InvalidArgumentError),
+        ({"start_b": [1]}, "start_b", cehmm.InvalidArgumentError),
+        ({"start_b": "ab"}, r"start_b: \"ab\" is a string \(expected a list of ints\)", TypeError),
+        ({"start_b": [1, "a"]}, "start_b", TypeError),
+        ({"target_rows": [9, 0]}, "target_rows", cehmm.InvalidArgumentError),
+        ({"start_heading": 4}, "start_heading", cehmm.InvalidArgumentError),
+        ({"case": "3"}, "case", TypeError),
+        ({"case": object()}, "case", TypeError),
     ],
 )
-def test_bad_parameter_values_are_named(params: dict, named: str) -> None:
-    with pytest.raises(cehmm.InvalidArgumentError, match=named):
+def test_bad_parameter_values_are_named(params: dict, named: str, error: type) -> None:
+    with pytest.raises(error, match=named) as raised:
         cehmm.TargetTracking(**params)
+    assert isinstance(raised.value, cehmm.CehmmError) == (error is not TypeError)
 
 
 def test_worlds_compare_hash_and_pickle_by_parameters() -> None:

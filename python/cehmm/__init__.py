@@ -13,8 +13,9 @@ Example:
     65.2
     >>> result.policy.save("policy.json")  # doctest: +SKIP
 
-Errors: every error of the engine is a :class:`CehmmError` (a ``ValueError``):
-:class:`InvalidArgumentError` (an argument out of its domain or of the wrong type),
+Errors: an argument of the wrong type raises ``TypeError`` (numpy integers and floats are taken
+where Python ints and floats are); every other error of the engine is a :class:`CehmmError` (a
+``ValueError``): :class:`InvalidArgumentError` (an argument out of its domain),
 :class:`PolicyFormatError` (an invalid policy file or table) and :class:`PolicyMismatchError`
 (a policy used with a world of other sizes). A file that cannot be read or written raises the
 built-in ``OSError`` subclass of its errno (``FileNotFoundError``, ``PermissionError``, ...).
@@ -22,12 +23,20 @@ built-in ``OSError`` subclass of its errno (``FileNotFoundError``, ``PermissionE
 
 from importlib.metadata import PackageNotFoundError, version
 
-from ._core import ENGINE_VERSION, CehmmError, InvalidArgumentError, PolicyFormatError, PolicyMismatchError
-from .evaluation import Evaluation, Rollout
+from ._core import (
+    ENGINE_VERSION,
+    CehmmError,
+    Evaluation,
+    InvalidArgumentError,
+    PolicyFormatError,
+    PolicyMismatchError,
+    Rollout,
+)
 from .optimizer import OptimizeResult, optimize
 from .policy import Policy
 from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
 from .tracking import TargetTracking
+from .world import World
 
 try:
     __version__ = version("cehmm")
@@ -46,6 +55,7 @@ __all__ = [
     "Rollout",
     "TargetTracking",
     "WindowEvaluation",
+    "World",
     "__version__",
     "evaluate_windows",
     "optimize",

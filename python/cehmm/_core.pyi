@@ -1,7 +1,8 @@
-"""Stub of the compiled engine ``cehmm._core`` (crates/cehmm-py/src/lib.rs).
+"""Stub of the compiled engine ``cehmm._core`` (crates/cehmm-py/src/).
 
-Private: use the ``cehmm`` package. Arguments are typed as the bindings extract them; the Python
-layer checks types first. Arrays are numpy arrays: tables float64, rollouts int64.
+Private: use the ``cehmm`` package. The bindings take Python or numpy numbers: a value of the
+wrong type raises ``TypeError``, one out of its domain :class:`InvalidArgumentError`. Arrays are
+numpy arrays: tables float64, rollouts int64, Q tables float32.
 """
 
 import os
@@ -15,14 +16,21 @@ __all__ = [
     "InvalidArgumentError",
     "PolicyFormatError",
     "PolicyMismatchError",
-    "TargetTracking",
+    "World",
     "Policy",
+    "Evaluation",
+    "Rollout",
+    "WindowEvaluation",
+    "OptimizeOutcome",
     "optimize",
     "QLearner",
     "evaluate_policy_windows",
     "epsilon",
     "ENGINE_VERSION",
     "CE_DEFAULTS",
+    "INIT_CHOICES",
+    "MEMORY_UPDATES",
+    "TIES",
     "DEFAULT_LEVELS",
     "WEAK_PATIENCE",
     "STRONG_PATIENCE",
@@ -34,6 +42,9 @@ __all__ = [
 ENGINE_VERSION: str
 #: ``CeConfig::default()``: samples, rho, smoothing, patience, seed, eval_episodes, memory_update, restarts.
 CE_DEFAULTS: dict[str, Any]
+INIT_CHOICES: list[str]
+MEMORY_UPDATES: list[str]
+TIES: list[str]
 DEFAULT_LEVELS: list[int]
 WEAK_PATIENCE: int
 STRONG_PATIENCE: int
@@ -47,7 +58,7 @@ class CehmmError(ValueError):
     """Base class of the errors raised by cehmm."""
 
 class InvalidArgumentError(CehmmError):
-    """An argument outside its domain or of the wrong type (``ceworld::Error::InvalidArgument``)."""
+    """An argument outside its domain (``ceworld::Error::InvalidArgument``)."""
 
 class PolicyFormatError(CehmmError):
     """An invalid policy file or table (``ceworld::Error::PolicyFormat``)."""
@@ -55,16 +66,8 @@ class PolicyFormatError(CehmmError):
 class PolicyMismatchError(CehmmError):
     """A policy whose observation or decision count differs from the world's (``ceworld::Error::Mismatch``)."""
 
-# ``ceworld::Error::Io`` is raised as the built-in ``OSError`` subclass of its errno, with ``filename``.
-
-class EvaluationDict(TypedDict):
-    episodes: int
-    mean: float
-    std_error: float
-    std: float
-    min: float
-    max: float
-    quantiles: dict[float, float]
+# ``ceworld::Error::WrongType`` is raised as ``TypeError``; ``ceworld::Error::Io`` as the built-in
+# ``OSError`` subclass of its errno, with ``filename``.
 
 class UpperTables(TypedDict):
     start: npt.NDArray[np.float64]  # (U, |M_l|)
@@ -75,14 +78,6 @@ class TablesDict(TypedDict):
     h1: npt.NDArray[np.float64]  # (Y, U, |M_1|)
     upper: list[UpperTables]  # levels 2..Λ
 
-class RolloutDict(TypedDict):
-    x: npt.NDArray[np.int64]  # (T, k), k = len(x_labels)
-    x_labels: list[str]
-    y: npt.NDArray[np.int64]  # (T,)
-    d: npt.NDArray[np.int64]  # (T,)
-    memory: npt.NDArray[np.int64]  # (T, Λ)
-    reward: float
-
 class HistoryDict(TypedDict):
     iteration: npt.NDArray[np.int64]  # (iterations,)
     mean: npt.NDArray[np.float64]
@@ -92,24 +87,20 @@ class HistoryDict(TypedDict):
     seconds: npt.NDArray[np.float64]
     successful: npt.NDArray[np.bool_]
 
-class OptimizeDict(TypedDict):
-    policy: Policy
-    last_policy: Policy
-    history: HistoryDict
-    evaluation: EvaluationDict
-    stop_reason: str
-    interrupted: bool
-    best_iteration: int
-    iterations: int
-    seconds: float
-
 @final
-class TargetTracking:
-    """``ceworld::TargetTracking``: the world of model §4."""
+class World:
+    """``ceworld::AnyWorld``: any registered world, by name (model §1)."""
 
-    def __new__(cls, case: int | None = None, **params: int | list[int] | tuple[int, int]) -> TargetTracking: ...
+    def __new__(cls, name: str, **params: Any) -> World: ...
+    def __eq__(self, value: object, /) -> bool: ...
+    @staticmethod
+    def from_dict(world: Any) -> World: ...
+    @staticmethod
+    def names() -> list[str]: ...
+    @staticmethod
+    def defaults(name: str) -> dict[str, Any]: ...
     @property
-    def case(self) -> int: ...
+    def name(self) -> str: ...
     @property
     def n_observations(self) -> int: ...
     @property
@@ -120,25 +111,73 @@ class TargetTracking:
     def params(self) -> dict[str, Any]: ...
     def to_dict(self) -> dict[str, Any]: ...
     def state_labels(self) -> list[str]: ...
-    def optimum(self) -> int: ...
+    def exact_optimum(self) -> float: ...
+
+@final
+class Evaluation:
+    """``ceworld::Evaluation``: the reward of a policy over fresh episodes."""
+
+    def __eq__(self, value: object, /) -> bool: ...
+    @property
+    def episodes(self) -> int: ...
+    @property
+    def mean(self) -> float: ...
+    @property
+    def std_error(self) -> float: ...
+    @property
+    def std(self) -> float: ...
+    @property
+    def min(self) -> float: ...
+    @property
+    def max(self) -> float: ...
+    @property
+    def quantiles(self) -> dict[float, float]: ...
+
+@final
+class Rollout:
+    """``ceworld::evaluate::Rollout``: one recorded episode; step ``t`` is row ``t``."""
+
+    @property
+    def x(self) -> npt.NDArray[np.int64]: ...  # (T, k), k = len(x_labels)
+    @property
+    def x_labels(self) -> list[str]: ...
+    @property
+    def y(self) -> npt.NDArray[np.int64]: ...  # (T,)
+    @property
+    def d(self) -> npt.NDArray[np.int64]: ...  # (T,)
+    @property
+    def memory(self) -> npt.NDArray[np.int64]: ...  # (T, Λ)
+    @property
+    def reward(self) -> float: ...
+    def __len__(self) -> int: ...
+    def column(self, label: str) -> npt.NDArray[np.int64]: ...
+
+@final
+class WindowEvaluation:
+    """``ceworld::qlearn::WindowReport`` with the reward counted as 100 %."""
+
+    def __eq__(self, value: object, /) -> bool: ...
+    @property
+    def from_start(self) -> Evaluation: ...
+    @property
+    def continuing(self) -> Evaluation: ...
+    @property
+    def reference(self) -> float: ...
+    def percent(self) -> dict[str, tuple[float, float, float]]: ...
 
 @final
 class Policy:
     """``ceworld::PolicyFile``: an HHMM policy with its world and provenance (model §6)."""
 
     @staticmethod
-    def uniform(world: TargetTracking, levels: list[int]) -> Policy: ...
-    @staticmethod
-    def random(world: TargetTracking, levels: list[int], seed: int) -> Policy: ...
-    @staticmethod
-    def clock(world: TargetTracking, levels: list[int]) -> Policy: ...
+    def start(world: World, levels: Any, init: str, seed: int) -> Policy: ...
     @staticmethod
     def from_tables(
         h0: npt.NDArray[np.float64],
         h1: npt.NDArray[np.float64],
         upper: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]],
-        world: TargetTracking | None = None,
-        provenance_json: str | None = None,
+        world: World | None = None,
+        provenance: dict[str, Any] | None = None,
     ) -> Policy: ...
     @staticmethod
     def load(path: str | os.PathLike[str]) -> Policy: ...
@@ -159,13 +198,34 @@ class Policy:
     @property
     def provenance(self) -> dict[str, Any]: ...
     def tables(self) -> TablesDict: ...
-    def evaluate(
-        self, world: TargetTracking, episodes: int, seed: int, threads: int | None = None
-    ) -> EvaluationDict: ...
-    def rollout(self, world: TargetTracking, seed: int, episode: int = 0) -> RolloutDict: ...
+    def evaluate(self, world: World, episodes: int, seed: int, threads: int | None = None) -> Evaluation: ...
+    def rollout(self, world: World, seed: int, episode: int) -> Rollout: ...
+
+@final
+class OptimizeOutcome:
+    """``ceworld::CeResult`` with its best and last policies (wrapped by ``cehmm.OptimizeResult``)."""
+
+    @property
+    def policy(self) -> Policy: ...
+    @property
+    def last_policy(self) -> Policy: ...
+    @property
+    def history(self) -> HistoryDict: ...
+    @property
+    def evaluation(self) -> Evaluation: ...
+    @property
+    def stop_reason(self) -> str: ...
+    @property
+    def interrupted(self) -> bool: ...
+    @property
+    def best_iteration(self) -> int: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def seconds(self) -> float: ...
 
 def optimize(
-    world: TargetTracking,
+    world: World,
     initial: Policy,
     *,
     samples: int,
@@ -179,44 +239,34 @@ def optimize(
     threads: int | None,
     eval_episodes: int,
     progress: bool,
-    memory_update: str = "sampled",
-    restarts: int = 1,
-) -> OptimizeDict: ...
-
-class WindowsDict(TypedDict):
-    from_start: EvaluationDict  # (a) one window from each fresh start
-    continuing: EvaluationDict  # (b) consecutive windows of continuing runs after a burn-in
-
-class TrainDict(TypedDict):
-    updates: int
-    seconds: float
-    interrupted: bool
-    checkpoints: int
-
+    memory_update: str,
+    restarts: int,
+) -> OptimizeOutcome: ...
 def epsilon(t: int) -> float: ...
 def evaluate_policy_windows(
     policy: Policy,
-    world: TargetTracking,
+    world: World,
     *,
-    window: int,
-    episodes: int,
-    chains: int,
-    burn_in: int,
-    windows_per_chain: int,
     seed: int,
-    threads: int | None = None,
-) -> WindowsDict: ...
+    threads: int | None,
+    reference: float,
+    **settings: int,
+) -> WindowEvaluation: ...
 
 @final
 class QLearner:
-    """``ceworld::QLearner<TargetTracking>``: a Q-learning run (table, counters, random stream, world state).
+    """``ceworld::qlearn::AnyLearner``: a Q-learning run (table, counters, random stream, world state).
 
-    ``QLearner(...)`` and ``load`` raise ``MemoryError`` when the table would not fit in memory.
+    ``QLearner(...)``, ``load`` and ``resume`` raise ``MemoryError`` when the table would not fit in memory.
     """
 
-    def __new__(cls, world: TargetTracking, *, gamma: float, alpha: float, seed: int, ties: str) -> QLearner: ...
+    def __new__(cls, world: World, *, gamma: float, alpha: float, seed: int, ties: str) -> QLearner: ...
     @staticmethod
     def load(path: str | os.PathLike[str]) -> QLearner: ...
+    @staticmethod
+    def resume(
+        path: str | os.PathLike[str], world: World, *, gamma: float, alpha: float, seed: int, ties: str
+    ) -> QLearner: ...
     def save(self, path: str | os.PathLike[str]) -> None: ...
     def train(
         self,
@@ -225,20 +275,17 @@ class QLearner:
         progress: bool,
         checkpoint: str | os.PathLike[str] | None = None,
         checkpoint_every: float | None = None,
-    ) -> TrainDict: ...
+    ) -> bool: ...
     def evaluate_windows(
         self,
-        world: TargetTracking,
+        world: World,
         *,
-        window: int,
-        episodes: int,
-        chains: int,
-        burn_in: int,
-        windows_per_chain: int,
         seed: int,
-        threads: int | None = None,
-        ties: str | None = None,
-    ) -> WindowsDict: ...
+        threads: int | None,
+        reference: float,
+        ties: str | None,
+        **settings: int,
+    ) -> WindowEvaluation: ...
     @property
     def updates(self) -> int: ...
     @property
@@ -260,7 +307,7 @@ class QLearner:
     @property
     def seconds(self) -> float: ...
     def header(self) -> dict[str, Any]: ...
-    def world(self) -> dict[str, Any]: ...
+    def world(self) -> World: ...
     def table(self) -> npt.NDArray[np.float32]: ...  # (n_states, n_actions)
     def row(self, state: int) -> npt.NDArray[np.float32]: ...  # (n_actions,)
     def state_index(self, state: list[int], y: int) -> int: ...

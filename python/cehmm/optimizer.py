@@ -9,10 +9,9 @@ from typing import Union
 import numpy as np
 
 from . import _core
-from . import _validate as check
-from .evaluation import Evaluation
+from ._core import Evaluation
 from .policy import Policy
-from .tracking import TargetTracking, core_world
+from .world import World, core_world
 
 #: What :func:`optimize` starts from.
 Init = Union[None, str, Policy]
@@ -20,6 +19,10 @@ Init = Union[None, str, Policy]
 #: The engine's defaults (one home: ``ceworld::CeConfig::default()``).
 CE_DEFAULTS = _core.CE_DEFAULTS
 DEFAULT_LEVELS = tuple(_core.DEFAULT_LEVELS)
+#: The names ``init`` accepts besides a :class:`Policy` (the engine's ``ceworld::Init``).
+INIT_CHOICES = tuple(_core.INIT_CHOICES)
+#: The names ``memory_update`` accepts (the engine's ``ceworld::MemoryUpdate``).
+MEMORY_UPDATES = tuple(_core.MEMORY_UPDATES)
 
 
 @dataclass(frozen=True, repr=False, eq=False)
@@ -52,6 +55,20 @@ class OptimizeResult:
     iterations: int
     seconds: float
 
+    @classmethod
+    def _from_core(cls, core: _core.OptimizeOutcome) -> OptimizeResult:
+        return cls(
+            policy=Policy(core.policy),
+            last_policy=Policy(core.last_policy),
+            history=dict(core.history),
+            evaluation=core.evaluation,
+            stop_reason=core.stop_reason,
+            interrupted=core.interrupted,
+            best_iteration=core.best_iteration,
+            iterations=core.iterations,
+            seconds=core.seconds,
+        )
+
     @property
     def best_mean(self) -> float:
         """Mean reward of the best iteration (biased upwards; see :attr:`evaluation`)."""
@@ -68,7 +85,7 @@ class OptimizeResult:
 
 
 def optimize(
-    world: TargetTracking,
+    world: World,
     levels: Sequence[int] | None = None,
     samples: int = CE_DEFAULTS["samples"],
     rho: float = CE_DEFAULTS["rho"],
@@ -133,49 +150,34 @@ def optimize(
         >>> result.iterations, len(result.history["mean"])
         (5, 5)
     """
-    core = core_world(world)
-    seed = check.seed(seed)
-    initial = _initial(world, levels, init, seed)
     raw = _core.optimize(
-        core,
-        initial._core,
-        samples=check.count("samples", samples),
-        rho=check.real("rho", rho),
-        smoothing=check.real("smoothing", smoothing),
-        patience=check.count("patience", patience),
-        max_iterations=check.optional_count("max_iterations", max_iterations),
-        time_limit=check.optional_real("time_limit", time_limit),
-        target=check.optional_real("target", target),
+        core_world(world),
+        _initial(world, levels, init, seed)._core,
+        samples=samples,
+        rho=rho,
+        smoothing=smoothing,
+        patience=patience,
+        max_iterations=max_iterations,
+        time_limit=time_limit,
+        target=target,
         seed=seed,
-        threads=check.optional_count("threads", threads),
-        eval_episodes=check.count("eval_episodes", eval_episodes),
-        progress=check.flag("progress", progress),
-        memory_update=check.choice("memory_update", memory_update, ("sampled", "forward-backward")),
-        restarts=check.count("restarts", restarts),
+        threads=threads,
+        eval_episodes=eval_episodes,
+        progress=progress,
+        memory_update=memory_update,
+        restarts=restarts,
     )
-    return OptimizeResult(
-        policy=Policy(raw["policy"]),
-        last_policy=Policy(raw["last_policy"]),
-        history=raw["history"],
-        evaluation=Evaluation._from_dict(raw["evaluation"]),
-        stop_reason=raw["stop_reason"],
-        interrupted=raw["interrupted"],
-        best_iteration=raw["best_iteration"],
-        iterations=raw["iterations"],
-        seconds=raw["seconds"],
-    )
+    return OptimizeResult._from_core(raw)
 
 
-def _initial(world: TargetTracking, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:
+def _initial(world: World, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:
     if isinstance(init, Policy):
-        if levels is not None and check.levels(levels) != init.levels:
-            raise check.invalid("levels", levels, f"None or the levels of init, {init.levels}")
+        if levels is not None and list(levels) != init.levels:
+            raise _core.InvalidArgumentError(
+                f"invalid levels: {levels!r} (expected None or the levels of init, {init.levels})"
+            )
         return init
-    sizes = check.levels(DEFAULT_LEVELS if levels is None else levels)
-    if init is None or (isinstance(init, str) and init == "uniform"):
-        return Policy.uniform(world, sizes)
-    if isinstance(init, str) and init == "random":
-        return Policy.random(world, sizes, seed)
-    if isinstance(init, str) and init == "clock":
-        return Policy.clock(world, sizes)
-    raise check.invalid("init", init, "None, 'uniform', 'random', 'clock' or a cehmm.Policy")
+    kind = "uniform" if init is None else init
+    if not isinstance(kind, str):
+        raise TypeError(f"invalid init: {init!r} (expected None, one of {', '.join(INIT_CHOICES)} or a cehmm.Policy)")
+    return Policy(_core.Policy.start(core_world(world), DEFAULT_LEVELS if levels is None else levels, kind, seed))

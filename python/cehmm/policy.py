@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping, Sequence
 from typing import Any, Union
@@ -10,10 +9,8 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from . import _validate as check
-from ._core import PolicyFormatError
-from .evaluation import Evaluation, Rollout
-from .tracking import TargetTracking, core_world
+from ._core import Evaluation, InvalidArgumentError, PolicyFormatError, Rollout
+from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -56,31 +53,32 @@ class Policy:
     # -- construction ------------------------------------------------------------------------
 
     @classmethod
-    def uniform(cls, world: TargetTracking, levels: Sequence[int]) -> Policy:
+    def uniform(cls, world: World, levels: Sequence[int]) -> Policy:
         """The policy whose every row is uniform (the starting point of the CE method).
 
         Raises:
             InvalidArgumentError: ``levels`` is not a non-empty list of sizes in ``1..=65535``.
+            TypeError: ``levels`` is not a list of ints.
         """
-        return cls(_core.Policy.uniform(core_world(world), check.levels(levels)))
+        return cls(_core.Policy.start(core_world(world), levels, "uniform", 0))
 
     @classmethod
-    def random(cls, world: TargetTracking, levels: Sequence[int], seed: int = 0) -> Policy:
+    def random(cls, world: World, levels: Sequence[int], seed: int = 0) -> Policy:
         """A policy with random rows (each entry uniform in (0, 1], then normalised), drawn from ``seed``."""
-        return cls(_core.Policy.random(core_world(world), check.levels(levels), check.seed(seed)))
+        return cls(_core.Policy.start(core_world(world), levels, "random", seed))
 
     @classmethod
-    def clock(cls, world: TargetTracking, levels: Sequence[int]) -> Policy:
+    def clock(cls, world: World, levels: Sequence[int]) -> Policy:
         """A two-level policy whose memory is a clock, ``m_1[t] = m_2[t] = (t - 1) mod M``, with
         uniform decisions: under CE its ``h0`` becomes a time-indexed plan (levels ``[M, M]``;
         ``M >= T`` gives every step its own row). The structure that solves case 2."""
-        return cls(_core.Policy.clock(core_world(world), check.levels(levels)))
+        return cls(_core.Policy.start(core_world(world), levels, "clock", 0))
 
     @classmethod
     def from_tables(
         cls,
         tables: Mapping[str, Any],
-        world: TargetTracking | None = None,
+        world: World | None = None,
         provenance: Mapping[str, Any] | None = None,
     ) -> Policy:
         """A policy from its tables (as returned by :attr:`tables`; arrays or nested lists).
@@ -106,8 +104,7 @@ class Policy:
                 raise PolicyFormatError(f"upper[{k}] is not a dict (expected {{'start': array, 'step': array}})")
             upper.append((_array(entry, "start", f"upper[{k}]."), _array(entry, "step", f"upper[{k}].")))
         core = None if world is None else core_world(world)
-        text = None if provenance is None else json.dumps(dict(provenance))
-        return cls(_core.Policy.from_tables(h0, h1, upper, core, text))
+        return cls(_core.Policy.from_tables(h0, h1, upper, core, None if provenance is None else dict(provenance)))
 
     @classmethod
     def load(cls, path: PathLike) -> Policy:
@@ -124,7 +121,7 @@ class Policy:
     def from_json(cls, text: str) -> Policy:
         """Reads and checks a policy document (model §6) from its JSON text."""
         if not isinstance(text, str):
-            raise check.invalid("text", text, "a str of JSON")
+            raise TypeError(f"invalid text: {text!r} (expected a str of JSON)")
         return cls(_core.Policy.from_json(text))
 
     def save(self, path: PathLike) -> None:
@@ -177,7 +174,7 @@ class Policy:
 
     def evaluate(
         self,
-        world: TargetTracking | None = None,
+        world: World | None = None,
         episodes: int = 10000,
         seed: int = 0,
         threads: int | None = None,
@@ -193,15 +190,9 @@ class Policy:
         Raises:
             PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
         """
-        core = self._core.evaluate(
-            core_world(self._world(world)),
-            check.count("episodes", episodes),
-            check.seed(seed),
-            check.optional_count("threads", threads),
-        )
-        return Evaluation._from_dict(core)
+        return self._core.evaluate(core_world(self._world(world)), episodes, seed, threads)
 
-    def rollout(self, world: TargetTracking | None = None, seed: int = 0, episode: int = 0) -> Rollout:
+    def rollout(self, world: World | None = None, seed: int = 0, episode: int = 0) -> Rollout:
         """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``.
 
         Returns:
@@ -211,16 +202,15 @@ class Policy:
         Raises:
             PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
         """
-        out = self._core.rollout(core_world(self._world(world)), check.seed(seed), check.seed(episode, "episode"))
-        return Rollout(**out)
+        return self._core.rollout(core_world(self._world(world)), seed, episode)
 
-    def _world(self, world: TargetTracking | None) -> TargetTracking:
+    def _world(self, world: World | None) -> World:
         if world is not None:
             return world
         stored = self.world
         if not stored:
-            raise check.invalid("world", None, "a cehmm.TargetTracking: this policy has no stored world")
-        return TargetTracking.from_dict(stored)
+            raise InvalidArgumentError("invalid world: None (expected a cehmm world: this policy has no stored world)")
+        return World.from_dict(stored)
 
     def __reduce__(self) -> tuple[Any, ...]:
         return (Policy.from_json, (self.to_json(),))

@@ -13,16 +13,14 @@ would not fit in memory is refused with ``MemoryError`` before anything is alloc
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from typing import Any, Union
 
 import numpy as np
 
 from . import _core
-from . import _validate as check
-from .evaluation import Evaluation
+from ._core import WindowEvaluation
 from .policy import Policy
-from .tracking import TargetTracking, core_world
+from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -35,54 +33,25 @@ WINDOW_DEFAULTS: dict[str, int] = dict(_core.WINDOW_DEFAULTS)
 #: Q-learning settings (the engine's: the paper's γ and α, random ties, checkpoints every 600 s).
 Q_DEFAULTS = _core.Q_DEFAULTS
 
+#: How greedy ties may be broken (the engine's ``ceworld::Ties``).
+TIES = tuple(_core.TIES)
 
-@dataclass(frozen=True)
-class WindowEvaluation:
-    """The non-discounted reward of windows of a policy's runs, as the paper compares policies.
-
-    Attributes:
-        from_start: (a) one window from each fresh start of the world (the target drawn as in an
-            episode); ``min`` is the worst window, ``max`` the best.
-        continuing: (b) consecutive windows of long continuing runs, after a burn-in ("after
-            many cycles"); consecutive windows are correlated, so its ``std_error`` is optimistic.
-        reference: the reward that counts as 100 % (the paper: 69).
-    """
-
-    from_start: Evaluation
-    continuing: Evaluation
-    reference: float = PAPER_REFERENCE
-
-    def percent(self) -> dict[str, tuple[float, float, float]]:
-        """``{"from_start": (worst, mean, best), "continuing": (...)}`` in % of :attr:`reference`."""
-        return {
-            name: tuple(100.0 * v / self.reference for v in (e.min, e.mean, e.max))  # type: ignore[misc]
-            for name, e in (("from_start", self.from_start), ("continuing", self.continuing))
-        }
-
-    @classmethod
-    def _from_dict(cls, d: dict[str, Any], reference: float) -> WindowEvaluation:
-        return cls(Evaluation._from_dict(d["from_start"]), Evaluation._from_dict(d["continuing"]), reference)
-
-    def __repr__(self) -> str:
-        p = self.percent()
-        a, b = p["from_start"], p["continuing"]
-        return (
-            f"WindowEvaluation(from_start: worst/mean/best {a[0]:.0f}/{a[1]:.0f}/{a[2]:.0f} % over "
-            f"{self.from_start.episodes} windows; continuing: {b[0]:.0f}/{b[1]:.0f}/{b[2]:.0f} % over "
-            f"{self.continuing.episodes} windows; of {self.reference:g})"
-        )
-
-
-def _window_args(settings: dict[str, Any]) -> dict[str, int]:
-    unknown = set(settings) - set(WINDOW_DEFAULTS)
-    if unknown:
-        raise check.invalid("window setting", sorted(unknown)[0], f"one of {sorted(WINDOW_DEFAULTS)}")
-    merged = {**WINDOW_DEFAULTS, **settings}
-    return {name: check.count(name, value) for name, value in merged.items()}
+__all__ = [
+    "PAPER_REFERENCE",
+    "Q_DEFAULTS",
+    "TIES",
+    "WINDOW_DEFAULTS",
+    "QLearner",
+    "WindowEvaluation",
+    "epsilon",
+    "evaluate_windows",
+    "qlearning",
+]
 
 
 class QLearner:
-    """A Q-learning run on a target-tracking world: the table and everything needed to go on.
+    """A Q-learning run on a world with a known state (target tracking): the table and
+    everything needed to go on.
 
     Make one with :func:`qlearning` (which also trains it) or :meth:`load`; train it further with
     :meth:`train`; evaluate its greedy policy (ties broken as in learning) like a policy with
@@ -110,7 +79,7 @@ class QLearner:
     @classmethod
     def new(
         cls,
-        world: TargetTracking,
+        world: World,
         gamma: float = Q_DEFAULTS["gamma"],
         alpha: float = Q_DEFAULTS["alpha"],
         seed: int = 0,
@@ -123,14 +92,7 @@ class QLearner:
             InvalidArgumentError: ``gamma`` outside ``[0, 1)``, ``alpha`` outside ``(0, 1]``, or
                 ``ties`` neither ``"random"`` nor ``"lowest"``.
         """
-        core = _core.QLearner(
-            core_world(world),
-            gamma=check.real("gamma", gamma),
-            alpha=check.real("alpha", alpha),
-            seed=check.seed(seed),
-            ties=_ties(ties),
-        )
-        return cls(core)
+        return cls(_core.QLearner(core_world(world), gamma=gamma, alpha=alpha, seed=seed, ties=ties))
 
     @classmethod
     def load(cls, path: PathLike) -> QLearner:
@@ -156,18 +118,17 @@ class QLearner:
         when Ctrl-C stops it and at the end. Ctrl-C stops between chunks of about a million
         updates and sets :attr:`interrupted` (no exception). Returns ``self``.
         """
-        outcome = self._core.train(
-            check.count("iterations", iterations),
-            progress=check.flag("progress", progress),
+        self.interrupted = self._core.train(
+            iterations,
+            progress=progress,
             checkpoint=None if checkpoint is None else os.fspath(checkpoint),
-            checkpoint_every=check.optional_real("checkpoint_every", checkpoint_every),
+            checkpoint_every=checkpoint_every,
         )
-        self.interrupted = outcome["interrupted"]
         return self
 
     def evaluate_windows(
         self,
-        world: TargetTracking | None = None,
+        world: World | None = None,
         *,
         seed: int = 0,
         threads: int | None = None,
@@ -187,14 +148,14 @@ class QLearner:
                 state, 10,000), ``chains`` (continuing runs, 16), ``burn_in`` (steps before the
                 first window of each run, 100,000), ``windows_per_chain`` (10,000).
         """
-        core = self._core.evaluate_windows(
+        return self._core.evaluate_windows(
             core_world(self.world if world is None else world),
-            seed=check.seed(seed),
-            threads=check.optional_count("threads", threads),
-            ties=None if ties is None else _ties(ties),
-            **_window_args(windows),
+            seed=seed,
+            threads=threads,
+            reference=reference,
+            ties=ties,
+            **windows,
         )
-        return WindowEvaluation._from_dict(core, check.real("reference", reference))
 
     @property
     def updates(self) -> int:
@@ -257,9 +218,9 @@ class QLearner:
         return self._core.header()
 
     @property
-    def world(self) -> TargetTracking:
+    def world(self) -> World:
         """The world the table was learnt in."""
-        return TargetTracking.from_dict(self._core.world())
+        return World.from_dict(self._core.world().to_dict())
 
     @property
     def table(self) -> np.ndarray:
@@ -268,7 +229,7 @@ class QLearner:
 
     def row(self, state: int) -> np.ndarray:
         """``Q(state, ·)``, float32, shape ``(n_actions,)``."""
-        return self._core.row(check.count("state", state))
+        return self._core.row(state)
 
     def greedy_actions(self, state: int) -> np.ndarray:
         """The greedy actions of ``state``: every action of maximal value (int64, ascending)."""
@@ -283,7 +244,7 @@ class QLearner:
                 rollout's ``x`` row (the target is not part of the known state).
             y: the observation.
         """
-        return self._core.state_index([int(v) for v in state], check.count("y", y))
+        return self._core.state_index([int(v) for v in state], y)
 
     def __repr__(self) -> str:
         return (
@@ -293,19 +254,13 @@ class QLearner:
         )
 
 
-def _ties(value: Any) -> str:
-    if value not in ("random", "lowest"):
-        raise check.invalid("ties", value, "'random' or 'lowest'")
-    return str(value)
-
-
 def epsilon(t: int) -> float:
     """``ε_t = min(1, 1/ln t)`` for update ``t`` (counted from 1): 1 while ``t <= 2``."""
-    return _core.epsilon(check.count("t", t))
+    return _core.epsilon(t)
 
 
 def qlearning(
-    world: TargetTracking,
+    world: World,
     iterations: int = 10**9,
     *,
     seed: int = 0,
@@ -339,29 +294,17 @@ def qlearning(
         InvalidArgumentError: a bad argument, or ``resume`` with settings other than the checkpoint's.
         PolicyMismatchError: the checkpoint was made in another world.
     """
+    settings = dict(gamma=gamma, alpha=alpha, seed=seed, ties=ties)
     if resume and checkpoint is not None and os.path.exists(checkpoint):
-        learner = QLearner.load(checkpoint)
-        if learner.world.params != world.params:
-            raise _core.PolicyMismatchError(
-                f"the checkpoint {os.fspath(checkpoint)} was made in the world {learner.world.params}, "
-                f"not {world.params}"
-            )
-        wanted = (check.real("gamma", gamma), check.real("alpha", alpha), check.seed(seed), _ties(ties))
-        if (learner.gamma, learner.alpha, learner.seed, learner.ties) != wanted:
-            raise check.invalid(
-                "resume",
-                dict(gamma=gamma, alpha=alpha, seed=seed, ties=ties),
-                f"the checkpoint's settings gamma={learner.gamma}, alpha={learner.alpha}, seed={learner.seed}, "
-                f"ties={learner.ties!r}",
-            )
+        learner = QLearner(_core.QLearner.resume(os.fspath(checkpoint), core_world(world), **settings))
     else:
-        learner = QLearner.new(world, gamma=gamma, alpha=alpha, seed=seed, ties=ties)
+        learner = QLearner.new(world, **settings)
     return learner.train(iterations, checkpoint=checkpoint, checkpoint_every=checkpoint_every, progress=progress)
 
 
 def evaluate_windows(
     policy: Policy | QLearner,
-    world: TargetTracking | None = None,
+    world: World | None = None,
     *,
     seed: int = 0,
     threads: int | None = None,
@@ -375,14 +318,9 @@ def evaluate_windows(
     if isinstance(policy, QLearner):
         return policy.evaluate_windows(world, seed=seed, threads=threads, reference=reference, **windows)
     if not isinstance(policy, Policy):
-        raise check.invalid("policy", policy, "a cehmm.Policy or a cehmm.QLearner")
+        raise TypeError(f"invalid policy: {policy!r} (expected a cehmm.Policy or a cehmm.QLearner)")
     if world is None:
-        world = TargetTracking.from_dict(policy.world)
-    core = _core.evaluate_policy_windows(
-        policy._core,
-        core_world(world),
-        seed=check.seed(seed),
-        threads=check.optional_count("threads", threads),
-        **_window_args(windows),
+        world = World.from_dict(policy.world)
+    return _core.evaluate_policy_windows(
+        policy._core, core_world(world), seed=seed, threads=threads, reference=reference, **windows
     )
-    return WindowEvaluation._from_dict(core, check.real("reference", reference))

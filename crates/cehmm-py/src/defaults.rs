@@ -8,11 +8,11 @@ use pyo3::types::PyDict;
 
 /// The exploration rate of Q-learning update `t` (`ceworld::qlearn::epsilon`).
 #[pyfunction]
-fn epsilon(t: u64) -> f64 {
-    ceworld::qlearn::epsilon(t)
+fn epsilon(t: &Bound<'_, PyAny>) -> PyResult<f64> {
+    Ok(ceworld::qlearn::epsilon(crate::convert::seed("t", t)?))
 }
 
-/// Adds `epsilon`, `CE_DEFAULTS`, `DEFAULT_LEVELS`, `WEAK_PATIENCE`, `STRONG_PATIENCE`, `WINDOW_DEFAULTS`,
+/// Adds `epsilon`, `CE_DEFAULTS`, `INIT_CHOICES`, `MEMORY_UPDATES`, `TIES`, `DEFAULT_LEVELS`, `WEAK_PATIENCE`, `STRONG_PATIENCE`, `WINDOW_DEFAULTS`,
 /// `Q_DEFAULTS` and `PAPER_REFERENCE` to the module.
 pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -28,6 +28,9 @@ pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     defaults.set_item("memory_update", ce.memory_update.as_str())?;
     defaults.set_item("restarts", ce.restarts)?;
     m.add("CE_DEFAULTS", defaults)?;
+    m.add("INIT_CHOICES", ceworld::Init::ALL.map(ceworld::Init::as_str).to_vec())?;
+    m.add("MEMORY_UPDATES", ceworld::MemoryUpdate::ALL.map(ceworld::MemoryUpdate::as_str).to_vec())?;
+    m.add("TIES", ceworld::Ties::ALL.map(ceworld::Ties::as_str).to_vec())?;
     m.add("DEFAULT_LEVELS", ceworld::DEFAULT_LEVELS.to_vec())?;
     m.add("WEAK_PATIENCE", ceworld::WEAK_PATIENCE)?;
     m.add("STRONG_PATIENCE", ceworld::STRONG_PATIENCE)?;

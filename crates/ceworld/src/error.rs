@@ -14,6 +14,15 @@ pub enum Error {
         /// What was wrong and what was expected.
         message: String,
     },
+    /// An argument of the wrong kind (a string where a number is expected, a float where an
+    /// integer is, ...); the Python bindings raise it as `TypeError`.
+    #[error("invalid {name}: {message}")]
+    WrongType {
+        /// The argument's name as the user wrote it.
+        name: String,
+        /// What was found and what was expected.
+        message: String,
+    },
     /// A policy whose shapes do not fit the world it is used with.
     #[error("policy does not match the world: {0}")]
     Mismatch(String),
@@ -53,6 +62,11 @@ impl Error {
     /// Shorthand for [`Error::InvalidArgument`].
     pub fn invalid(name: impl Into<String>, message: impl Into<String>) -> Self {
         Error::InvalidArgument { name: name.into(), message: message.into() }
+    }
+
+    /// Shorthand for [`Error::WrongType`].
+    pub fn wrong_type(name: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::WrongType { name: name.into(), message: message.into() }
     }
 
     /// Shorthand for [`Error::PolicyFormat`] without a path (the loader adds it).

@@ -1,4 +1,4 @@
-//! Evaluation of a policy on fresh episodes.
+//! Evaluation of a policy on fresh episodes, and the record of one of them (a rollout).
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -89,6 +89,52 @@ pub fn evaluate<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) 
     Ok(Evaluation::from_rewards(&rewards(world, policy, episodes, seed)?))
 }
 
+/// One recorded episode: step `t` is row `t` of every table.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Rollout {
+    /// Names of the numbers of one hidden state ([`World::state_labels`]).
+    pub x_labels: Vec<&'static str>,
+    /// The hidden state `x_t` as [`World::describe`] writes it, `T × x_labels.len()`, row-major.
+    pub x: Vec<i64>,
+    /// Observations `y_t`.
+    pub y: Vec<i64>,
+    /// Decisions `d_t`.
+    pub d: Vec<i64>,
+    /// Memory states `m_1[t] .. m_Λ[t]`, `T × Λ`, row-major.
+    pub memory: Vec<i64>,
+    /// Number of levels `Λ` (columns of `memory`).
+    pub levels: usize,
+    /// The episode's reward `V`.
+    pub reward: f64,
+}
+
+impl Rollout {
+    /// Number of steps recorded.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Whether no step was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+}
+
+/// Episode `episode` of [`evaluate`] with the same `seed` (stream `(seed, Evaluate, 0, episode)`),
+/// recorded step by step.
+pub fn rollout<W: World>(world: &W, policy: &Hhmm, seed: u64, episode: u64) -> Result<Rollout> {
+    check_fits(world, policy)?;
+    let mut rng = stream(seed, Purpose::Evaluate, 0, episode);
+    let (mut x, mut y, mut d, mut memory) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let reward = run_with(world, policy, &mut rng, |_, yt, dt, m, state| {
+        world.describe(state, &mut x);
+        y.push(yt as i64);
+        d.push(dt as i64);
+        memory.extend(m.iter().map(|&v| i64::from(v)));
+    });
+    Ok(Rollout { x_labels: world.state_labels(), x, y, d, memory, levels: policy.levels().len(), reward })
+}
+
 /// Checks that the policy's observation and decision counts are the world's.
 pub fn check_fits<W: World>(world: &W, policy: &Hhmm) -> Result<()> {
     let l = policy.layout();
@@ -116,5 +162,27 @@ mod tests {
         assert!((e.std - (5.0f64 / 3.0).sqrt()).abs() < 1e-12);
         assert!((e.std_error - e.std / 2.0).abs() < 1e-12);
         assert_eq!(e.quantiles[2], (0.5, 2.0));
+    }
+
+    #[test]
+    fn a_rollout_is_the_evaluated_episode_recorded() {
+        let world = crate::TargetTracking::new(3).unwrap();
+        let policy = crate::random_policy(&world, &[4, 2], 7).unwrap();
+        let all = rewards(&world, &policy, 5, 11).unwrap();
+        for (k, &reward) in all.iter().enumerate() {
+            let r = rollout(&world, &policy, 11, k as u64).unwrap();
+            assert_eq!(r.reward, reward);
+            assert_eq!((r.len(), r.levels, r.x_labels.len()), (world.horizon(), 2, 8));
+            assert_eq!((r.x.len(), r.memory.len(), r.d.len()), (8 * r.len(), 2 * r.len(), r.len()));
+            assert!(r.y.iter().all(|&y| (0..16).contains(&y)) && r.d.iter().all(|&d| (0..16).contains(&d)));
+            assert!(r.memory.chunks(2).all(|m| m[0] < 4 && m[1] < 2));
+            // The first row is the start state: both mobiles on their start cells (model §4).
+            let p = world.params();
+            let h = i64::from(p.start_heading);
+            let start = [p.start_b[0].into(), p.start_b[1].into(), h, p.start_c[0].into(), p.start_c[1].into(), h];
+            assert_eq!(&r.x[..6], &start[..]);
+        }
+        let other = crate::TargetTracking::new(2).unwrap();
+        assert!(matches!(rollout(&other, &policy, 0, 0), Err(Error::Mismatch(_))));
     }
 }

@@ -24,9 +24,10 @@ pub mod qlearn;
 pub mod rng;
 pub mod world;
 
+pub use ce::init::{Init, clock_policy, random_policy, uniform_policy};
 pub use ce::optimize::{
     CeConfig, CeResult, DEFAULT_LEVELS, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE,
-    clock_policy, optimize, random_policy, uniform_policy,
+    optimize,
 };
 pub use control::{Flow, thread_pool};
 pub use error::{Error, Result};

@@ -106,8 +106,10 @@ fn resume_continues_and_an_existing_checkpoint_is_not_overwritten() {
     assert!(qlearn(straight.to_str().unwrap(), "20000", &["--no-eval"]).status.success());
     let (a, b) = (header(&path), header(&straight));
     assert_eq!((&a["rng"], &a["world_state"]), (&b["rng"], &b["world_state"]));
-    let (ta, tb) = (ceworld::qlearn::load_tracking(&path).unwrap(), ceworld::qlearn::load_tracking(&straight).unwrap());
-    assert!(ta.table() == tb.table());
+    let load = |p: &std::path::Path| match ceworld::qlearn::AnyLearner::load(p).unwrap() {
+        ceworld::qlearn::AnyLearner::TargetTracking(q) => q,
+    };
+    assert!(load(&path).table() == load(&straight).table());
     let out = qlearn(p, "30000", &["--no-eval", "--resume", "--seed", "1"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("keeps its settings"));

@@ -3,5 +3,6 @@
 
 pub mod counting;
 pub mod episode;
+pub mod init;
 pub mod optimize;
 pub mod posterior;

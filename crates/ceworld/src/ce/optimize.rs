@@ -59,6 +59,9 @@ pub enum MemoryUpdate {
 }
 
 impl MemoryUpdate {
+    /// Every kind.
+    pub const ALL: [MemoryUpdate; 2] = [MemoryUpdate::Sampled, MemoryUpdate::ForwardBackward];
+
     /// `"sampled"` or `"forward-backward"`.
     pub const fn as_str(self) -> &'static str {
         match self {
@@ -483,21 +486,6 @@ fn count_elite<'a>(
             Counts::Real(total)
         }
     }
-}
-
-/// A uniform policy for `levels` sized for `world`.
-pub fn uniform_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
-    Hhmm::uniform(world.n_observations(), world.n_decisions(), levels)
-}
-
-/// A clock policy (see [`Hhmm::clock`]) for `levels` sized for `world`.
-pub fn clock_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
-    Hhmm::clock(world.n_observations(), world.n_decisions(), levels)
-}
-
-/// A random policy for `levels` sized for `world`, drawn from `seed`.
-pub fn random_policy<W: World>(world: &W, levels: &[usize], seed: u64) -> Result<Hhmm> {
-    Hhmm::random(world.n_observations(), world.n_decisions(), levels, &mut stream(seed, Purpose::Init, 0, 0))
 }
 
 #[cfg(test)]

@@ -216,4 +216,17 @@ impl PolicyFile {
         }
         PolicyFile { policy: result.policy.clone(), world: world.to_json(), provenance }
     }
+
+    /// The file of an optimisation's last policy: the provenance of [`PolicyFile::from_result`]
+    /// with `"policy": "last"`, without the figures that describe the best policy (its
+    /// evaluation and best iteration).
+    pub fn from_last<W: crate::World>(world: &W, result: &crate::CeResult, config: &crate::CeConfig) -> PolicyFile {
+        let mut file = PolicyFile::from_result(world, result, config);
+        if let Some(map) = file.provenance.as_object_mut() {
+            map.retain(|k, _| !(k == "mean_reward" || k.starts_with("evaluation") || k.starts_with("best_iteration")));
+            map.insert("policy".into(), json!("last"));
+        }
+        file.policy = result.last_policy.clone();
+        file
+    }
 }

@@ -16,7 +16,6 @@ use super::Ties;
 use super::VERSION;
 use crate::error::Error;
 use crate::rng::EngineRng;
-use crate::world::tracking::TargetTracking;
 use serde_json::Value;
 use std::fs::File;
 use std::io::BufReader;
@@ -197,12 +196,4 @@ fn open_table(path: &Path) -> Result<(Value, u64, BufReader<File>)> {
 /// The header of a Q-table file (its world, settings and counters), without reading the table.
 pub fn read_header(path: impl AsRef<Path>) -> Result<Value> {
     Ok(open_table(path.as_ref())?.0)
-}
-
-/// Reads a Q-table file of the target-tracking world, rebuilding the world from its header.
-pub fn load_tracking(path: impl AsRef<Path>) -> Result<QLearner<TargetTracking>> {
-    let path = path.as_ref();
-    let header = read_header(path)?;
-    let world = TargetTracking::from_json(header.get("world").unwrap_or(&Value::Null))?;
-    QLearner::load(path, world)
 }

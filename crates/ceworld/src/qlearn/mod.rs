@@ -52,13 +52,15 @@ use crate::rng::EngineRng;
 use crate::world::World;
 use serde::{Deserialize, Serialize};
 
+mod any;
 mod checkpoint;
 mod learner;
 mod table;
 mod tracking;
 mod windows;
 
-pub use checkpoint::{load_tracking, read_header};
+pub use any::{AnyLearner, evaluate_policy_windows};
+pub use checkpoint::read_header;
 pub use learner::{QLearner, QProgress, RunStats, TrainOutcome};
 pub use table::{QTable, available_memory, check_memory, table_bytes};
 pub use windows::{Greedy, WindowConfig, WindowPolicy, WindowReport, evaluate_windows, percent};
@@ -116,6 +118,9 @@ pub enum Ties {
 }
 
 impl Ties {
+    /// Every rule.
+    pub const ALL: [Ties; 2] = [Ties::Random, Ties::Lowest];
+
     /// `"random"` or `"lowest"`.
     pub const fn as_str(self) -> &'static str {
         match self {

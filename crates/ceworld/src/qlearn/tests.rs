@@ -4,6 +4,7 @@ use crate::error::Result;
 use rand::Rng;
 use serde_json::json;
 
+use super::AnyLearner;
 use super::CHUNK;
 use super::ContinuingWorld;
 use super::FORMAT;
@@ -18,7 +19,6 @@ use super::WindowConfig;
 use super::check_memory;
 use super::epsilon;
 use super::evaluate_windows;
-use super::load_tracking;
 use super::percent;
 use super::read_header;
 use super::table_bytes;
@@ -385,8 +385,8 @@ fn train_checkpoints_and_stops_when_asked() {
     let header = read_header(&path).unwrap();
     assert_eq!(header["updates"], 2 * CHUNK);
     assert_eq!(header["format"], FORMAT);
-    let loaded = load_tracking(&path).unwrap();
-    assert!(loaded.table() == learner.table());
+    let AnyLearner::TargetTracking(loaded) = AnyLearner::load(&path).unwrap();
+    assert!(loaded.table() == learner.table() && loaded.world() == learner.world());
 }
 
 #[test]

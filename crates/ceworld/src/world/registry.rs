@@ -32,11 +32,28 @@ pub const REGISTRY: &[Entry] = &[Entry {
     name: TargetTracking::NAME,
     defaults: || object(serde_json::to_value(TrackingParams::default()).expect("parameters serialise")),
     build: |params| {
-        let params: TrackingParams = serde_json::from_value(Value::Object(params.clone()))
-            .map_err(|e| Error::invalid("world", format!("{}: {e}", TargetTracking::NAME)))?;
-        Ok(AnyWorld::TargetTracking(TargetTracking::with_params(params)?))
+        Ok(AnyWorld::TargetTracking(TargetTracking::with_params(deserialize(TargetTracking::NAME, params)?)?))
     },
 }];
+
+/// A world's parameter struct from a complete parameter object; a value its type cannot hold
+/// (`case: -1` for a `u8`) is refused naming the parameter.
+pub fn deserialize<T: serde::de::DeserializeOwned + serde::Serialize + Default>(
+    world: &str,
+    params: &Map<String, Value>,
+) -> Result<T> {
+    serde_json::from_value(Value::Object(params.clone())).map_err(|error| {
+        let defaults = object(serde_json::to_value(T::default()).expect("parameters serialise"));
+        for (key, value) in params {
+            let mut probe = defaults.clone();
+            probe.insert(key.clone(), value.clone());
+            if let Err(e) = serde_json::from_value::<T>(Value::Object(probe)) {
+                return Error::invalid(format!("{world}.{key}"), format!("{value} is out of range ({e})"));
+            }
+        }
+        Error::invalid("world", format!("{world}: {error}"))
+    })
+}
 
 fn object(value: Value) -> Map<String, Value> {
     match value {
@@ -66,9 +83,17 @@ impl AnyWorld {
                     format!("{name}: unknown parameter {key:?} (expected one of {known:?})"),
                 ));
             }
+            check_kind(&format!("{name}.{key}"), &all[key], value)?;
             all.insert(key.clone(), value.clone());
         }
         (entry.build)(&all)
+    }
+
+    /// The world's name, as in policy files and on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            AnyWorld::TargetTracking(_) => TargetTracking::NAME,
+        }
     }
 
     /// The world of a policy file's `"world"` object: its `"name"` and its parameters (missing
@@ -100,6 +125,45 @@ macro_rules! with_world {
             $crate::world::registry::AnyWorld::TargetTracking($w) => $body,
         }
     };
+}
+
+/// What kind of JSON value `value` is, as a user would say it.
+fn kind(value: &Value) -> &'static str {
+    match value {
+        Value::Null => "null",
+        Value::Bool(_) => "a bool",
+        Value::Number(n) if n.is_f64() => "a float",
+        Value::Number(_) => "an int",
+        Value::String(_) => "a string",
+        Value::Array(_) => "a list",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// Refuses a parameter whose value is not of the kind of its default (an int where an int is
+/// expected, a list of ints where a pair of ints is, ...) with [`Error::WrongType`]; the
+/// world's own checks then judge the value.
+fn check_kind(name: &str, default: &Value, value: &Value) -> Result<()> {
+    let expected = match default {
+        Value::Array(items) => items.first().map_or("a list", |first| match kind(first) {
+            "an int" => "a list of ints",
+            "a float" => "a list of numbers",
+            _ => "a list",
+        }),
+        Value::Number(n) if n.is_f64() => "a number",
+        other => kind(other),
+    };
+    let fits = |default: &Value, value: &Value| match (default, value) {
+        (Value::Number(d), Value::Number(v)) => d.is_f64() || !v.is_f64(),
+        _ => std::mem::discriminant(default) == std::mem::discriminant(value),
+    };
+    let ok = match (default, value) {
+        (Value::Array(items), Value::Array(values)) => {
+            items.first().is_none_or(|first| values.iter().all(|v| fits(first, v)))
+        }
+        _ => fits(default, value),
+    };
+    if ok { Ok(()) } else { Err(Error::wrong_type(name, format!("{value} is {} (expected {expected})", kind(value)))) }
 }
 
 /// The names of the registered worlds.
@@ -137,5 +201,36 @@ mod tests {
         assert!(e.contains("unknown parameter \"speed\""), "{e}");
         let e = AnyWorld::from_json(&serde_json::json!({"case": 3})).unwrap_err().to_string();
         assert!(e.contains("world.name"), "{e}");
+    }
+
+    #[test]
+    fn parameters_of_the_wrong_kind_are_type_errors_and_bad_values_are_not() {
+        let world = |json: Value| AnyWorld::from_json(&json);
+        for bad in [
+            serde_json::json!({"name": "target-tracking", "case": "3"}),
+            serde_json::json!({"name": "target-tracking", "case": 2.5}),
+            serde_json::json!({"name": "target-tracking", "case": true}),
+            serde_json::json!({"name": "target-tracking", "target_cell": 3}),
+            serde_json::json!({"name": "target-tracking", "target_cell": [1, 2.5]}),
+        ] {
+            let e = world(bad.clone()).unwrap_err();
+            assert!(
+                matches!(e, Error::WrongType { ref name, .. } if name.starts_with("target-tracking.")),
+                "{bad}: {e}"
+            );
+        }
+        for bad in [
+            serde_json::json!({"name": "target-tracking", "case": 4}),
+            serde_json::json!({"name": "target-tracking", "case": -1}),
+            serde_json::json!({"name": "target-tracking", "case": 256}),
+            serde_json::json!({"name": "target-tracking", "target_cell": [1, 2, 3]}),
+        ] {
+            let e = world(bad.clone()).unwrap_err();
+            assert!(matches!(e, Error::InvalidArgument { .. }), "{bad}: {e}");
+        }
+        assert!(world(serde_json::json!({"name": "target-tracking", "case": 1, "horizon": 5})).is_ok());
+        let e =
+            world(serde_json::json!({"name": "target-tracking", "horizon": 5, "case": -1})).unwrap_err().to_string();
+        assert!(e.starts_with("invalid target-tracking.case: -1 is out of range"), "{e}");
     }
 }

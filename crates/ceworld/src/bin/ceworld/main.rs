@@ -14,9 +14,7 @@ use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
 
 use ceworld::thread_pool;
-use ceworld::{
-    AnyWorld, CeConfig, Error, Flow, PolicyFile, Result, World, evaluate, optimize, random_policy, uniform_policy,
-};
+use ceworld::{AnyWorld, CeConfig, Error, Flow, Init, PolicyFile, Result, World, evaluate, optimize};
 
 /// Cross-entropic learning of hierarchical-HMM policies (Dambreville's method) for the
 /// target-tracking world of model §4.
@@ -195,11 +193,15 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         restarts: args.restarts,
     };
     config.validate()?;
-    let initial = match &args.init {
-        Some(path) => PolicyFile::load(path)?.policy,
-        None if args.random_init => random_policy(world, &args.levels, args.seed)?,
-        None if args.clock_init => ceworld::clock_policy(world, &args.levels)?,
-        None => uniform_policy(world, &args.levels)?,
+    let initial = if let Some(path) = &args.init {
+        PolicyFile::load(path)?.policy
+    } else {
+        let init = match (args.random_init, args.clock_init) {
+            (true, _) => Init::Random,
+            (_, true) => Init::Clock,
+            _ => Init::Uniform,
+        };
+        init.policy(world, &args.levels, args.seed)?
     };
     let stop = Arc::new(AtomicBool::new(false));
     {

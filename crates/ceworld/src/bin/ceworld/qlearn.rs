@@ -9,11 +9,9 @@ use std::time::Instant;
 use serde_json::Value;
 
 use ceworld::progress::LiveLine;
-use ceworld::qlearn::{Greedy, PAPER_REFERENCE, Ties, load_tracking, percent};
-use ceworld::thread_pool;
+use ceworld::qlearn::{AnyLearner, KnownState, PAPER_REFERENCE, Ties, evaluate_policy_windows, percent};
 use ceworld::{
-    AnyWorld, Error, Flow, PolicyFile, QConfig, QLearner, Result, TargetTracking, WindowConfig, WindowReport, World,
-    evaluate_windows,
+    AnyWorld, Error, Flow, PolicyFile, QConfig, QLearner, Result, WindowConfig, WindowReport, thread_pool, with_learner,
 };
 
 use super::{WorldArgs, world_from};
@@ -161,10 +159,10 @@ fn stop_flag() -> Arc<AtomicBool> {
 /// the settings asked for), else a fresh one (refusing to overwrite a checkpoint unasked).
 fn open_learner(
     args: &QlearnArgs,
-    world: TargetTracking,
+    world: AnyWorld,
     config: QConfig,
     checkpoint: &std::path::Path,
-) -> Result<QLearner<TargetTracking>> {
+) -> Result<AnyLearner> {
     Ok(if args.resume {
         if !checkpoint.exists() {
             return Err(Error::invalid(
@@ -172,25 +170,7 @@ fn open_learner(
                 format!("{} does not exist (start without --resume)", checkpoint.display()),
             ));
         }
-        let learner = load_tracking(checkpoint)?;
-        if learner.world() != &world {
-            return Err(Error::Mismatch(format!(
-                "the checkpoint {} was made in the world {}, not the one of --case/--param ({})",
-                checkpoint.display(),
-                learner.world().to_json(),
-                world.to_json()
-            )));
-        }
-        if learner.config() != &config {
-            return Err(Error::invalid(
-                "--resume",
-                format!(
-                    "the checkpoint was made with {:?}, not {config:?}: a resumed run keeps its settings",
-                    learner.config()
-                ),
-            ));
-        }
-        learner
+        AnyLearner::resume(checkpoint, &world, &config)?
     } else {
         if checkpoint.exists() && !args.overwrite {
             return Err(Error::invalid(
@@ -198,32 +178,39 @@ fn open_learner(
                 format!("{} exists: pass --resume to continue it or --overwrite to start afresh", checkpoint.display()),
             ));
         }
-        QLearner::new(world, config)?
+        AnyLearner::new(world, config)?
     })
 }
 
 pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
-    // Q-learning needs a world whose state it can index (`KnownState`): target tracking.
-    #[allow(unreachable_patterns)]
-    let world = match world_from(&args.world)? {
-        AnyWorld::TargetTracking(world) => world,
-        other => {
-            return Err(Error::invalid(
-                "--world",
-                format!("{} (Q-learning needs a world with a known state)", other.to_json()),
-            ));
-        }
-    };
     let config = QConfig { gamma: args.gamma, alpha: args.alpha, seed: args.seed, ties: Ties::parse(&args.ties)? };
     config.validate()?;
     args.windows.config().validate()?;
     let checkpoint = args.checkpoint.clone().unwrap_or_else(|| args.out.clone());
-    let mut learner = open_learner(args, world, config, &checkpoint)?;
+    let mut learner = open_learner(args, world_from(&args.world)?, config, &checkpoint)?;
+    let interrupted = with_learner!(&mut learner, q => train(args, q, &checkpoint))?;
+    if interrupted {
+        println!("continue with: ceworld qlearn --resume --checkpoint {} ...", checkpoint.display());
+    } else if !args.no_eval {
+        let pool = thread_pool(args.windows.threads)?;
+        let report = pool.install(|| {
+            learner.evaluate_windows(&learner.world(), None, &args.windows.config(), args.windows.eval_seed)
+        })?;
+        let (updates, ties) = with_learner!(&learner, q => (q.updates(), q.config().ties));
+        let name = format!("Q-policy (greedy, {} ties, {:.1e} updates)", ties.as_str(), updates as f64);
+        print_windows(&[(name, report)], args.windows.reference);
+    }
+    Ok(())
+}
+
+/// The learning run of `qlearn` on a learner of any world with a known state; whether Ctrl-C
+/// stopped it.
+fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint: &std::path::Path) -> Result<bool> {
     let stop = stop_flag();
     if !args.quiet {
         eprintln!(
-            "ceworld qlearn: case {}, {} states × {} actions (f32, {:.2} GiB), gamma {}, alpha {}, epsilon = min(1, 1/ln t), {} ties, seed {}; from {} to {} updates; checkpoint {} every {}s",
-            learner.world().params().case,
+            "ceworld qlearn: {}, {} states × {} actions (f32, {:.2} GiB), gamma {}, alpha {}, epsilon = min(1, 1/ln t), {} ties, seed {}; from {} to {} updates; checkpoint {} every {}s",
+            learner.world().to_json(),
             learner.table().n_states(),
             learner.table().n_actions(),
             learner.table().bytes() as f64 / (1u64 << 30) as f64,
@@ -238,7 +225,7 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
         );
     }
     let mut line = (!args.quiet).then(LiveLine::stderr);
-    let outcome = learner.train(args.iterations, Some(&checkpoint), Some(args.checkpoint_every), |p| {
+    let outcome = learner.train(args.iterations, Some(checkpoint), Some(args.checkpoint_every), |p| {
         if let Some(line) = &mut line {
             line.update(p.line());
         }
@@ -263,23 +250,7 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
         checkpoint.display(),
         rss
     );
-    if outcome.interrupted {
-        println!("continue with: ceworld qlearn --resume --checkpoint {} ...", checkpoint.display());
-        return Ok(());
-    }
-    if !args.no_eval {
-        let pool = thread_pool(args.windows.threads)?;
-        let report = pool.install(|| {
-            evaluate_windows(learner.world(), &learner.greedy_policy(), &args.windows.config(), args.windows.eval_seed)
-        })?;
-        let name = format!(
-            "Q-policy (greedy, {} ties, {:.1e} updates)",
-            learner.config().ties.as_str(),
-            learner.updates() as f64
-        );
-        print_windows(&[(name, report)], args.windows.reference);
-    }
-    Ok(())
+    Ok(outcome.interrupted)
 }
 
 /// The paper's comparison table: worst, mean and best window, absolute and in % of `reference`.
@@ -316,33 +287,28 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
     let mut reports = Vec::new();
     if let Some(path) = &args.table {
         let started = Instant::now();
-        let learner = load_tracking(path)?;
-        eprintln!(
-            "{}: {} updates, loaded in {:.1}s",
-            path.display(),
-            learner.updates(),
-            started.elapsed().as_secs_f64()
-        );
+        let learner = AnyLearner::load(path)?;
+        let (updates, learnt_ties) = with_learner!(&learner, q => (q.updates(), q.config().ties));
+        eprintln!("{}: {} updates, loaded in {:.1}s", path.display(), updates, started.elapsed().as_secs_f64());
         let ties = match &args.ties {
             Some(t) => Ties::parse(t)?,
-            None => learner.config().ties,
+            None => learnt_ties,
         };
-        let greedy = Greedy { table: learner.table(), ties };
-        let report = pool.install(|| evaluate_windows(learner.world(), &greedy, &config, seed))?;
+        let report = pool.install(|| learner.evaluate_windows(&learner.world(), Some(ties), &config, seed))?;
         reports.push((
             format!(
                 "Q-policy (greedy, {} ties; learnt with {} ties, {:.1e} updates)",
                 ties.as_str(),
-                learner.config().ties.as_str(),
-                learner.updates() as f64
+                learnt_ties.as_str(),
+                updates as f64
             ),
             report,
         ));
     }
     for path in &args.ce_policies {
         let file = PolicyFile::load(path)?;
-        let world = TargetTracking::from_json(&file.world)?;
-        let report = pool.install(|| evaluate_windows(&world, &file.policy, &config, seed))?;
+        let world = AnyWorld::from_json(&file.world)?;
+        let report = pool.install(|| evaluate_policy_windows(&world, &file.policy, &config, seed))?;
         reports.push((format!("HHMM {:?} ({})", file.policy.levels(), path.display()), report));
     }
     print_windows(&reports, args.windows.reference);

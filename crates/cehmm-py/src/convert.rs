@@ -1,0 +1,196 @@
+//! Translation of Python values into the core's types and back.
+//!
+//! Arguments: a value of the wrong type raises `TypeError` (numpy integers and floats are taken
+//! where Python ints and floats are; a bool is not an int here); a number its Rust type cannot
+//! hold (a negative count, a seed of 2**64) raises `InvalidArgumentError`. Domains (`rho` in
+//! (0, 1), `samples >= 1`, level sizes) are the core's to check. JSON values (world parameters,
+//! provenance) cross as Python dicts, lists, numbers and strings.
+
+use pyo3::exceptions::PyOverflowError;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use serde_json::{Map, Number, Value};
+
+use ceworld::Error;
+
+use crate::errors::raise;
+
+/// `repr(value)`, as error messages show it.
+pub fn shown(value: &Bound<'_, PyAny>) -> String {
+    value.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+}
+
+fn wrong_type(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyErr {
+    raise(Error::wrong_type(name, format!("{} (expected {expected})", shown(value))))
+}
+
+/// An integer that fits in 64 bits, signed or not.
+enum Int {
+    Signed(i64),
+    Unsigned(u64),
+}
+
+/// An int (or numpy integer): `None` when it does not fit in 64 bits.
+fn int(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyResult<Option<Int>> {
+    if value.is_instance_of::<PyBool>() || value.is_instance_of::<PyFloat>() {
+        return Err(wrong_type(name, value, expected));
+    }
+    match value.extract::<i64>() {
+        Ok(v) => Ok(Some(Int::Signed(v))),
+        Err(e) if e.is_instance_of::<PyOverflowError>(value.py()) => Ok(value.extract::<u64>().ok().map(Int::Unsigned)),
+        Err(_) => Err(wrong_type(name, value, expected)),
+    }
+}
+
+/// An unsigned integer argument described as `expected` ("a non-negative int", ...).
+fn unsigned(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyResult<u64> {
+    match int(name, value, expected)? {
+        Some(Int::Signed(v)) if v >= 0 => Ok(v.unsigned_abs()),
+        Some(Int::Unsigned(v)) => Ok(v),
+        _ => Err(raise(Error::invalid(name, format!("{} (expected {expected})", shown(value))))),
+    }
+}
+
+/// A count (`samples`, `episodes`, `threads`, ...): a non-negative int.
+pub fn count(name: &str, value: &Bound<'_, PyAny>) -> PyResult<usize> {
+    let n = unsigned(name, value, "a non-negative int")?;
+    usize::try_from(n).map_err(|_| raise(Error::invalid(name, format!("{n} (expected a smaller int)"))))
+}
+
+/// [`count`], or `None`.
+pub fn optional_count(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
+    value.filter(|v| !v.is_none()).map(|v| count(name, v)).transpose()
+}
+
+/// A seed (or a count of 64 bits): an int in `0..2**64`.
+pub fn seed(name: &str, value: &Bound<'_, PyAny>) -> PyResult<u64> {
+    unsigned(name, value, "an int in 0..2**64")
+}
+
+/// A real number: an int or a float (numpy's too), not a bool or a string.
+pub fn real(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
+    if value.is_instance_of::<PyBool>() || value.is_instance_of::<PyString>() {
+        return Err(wrong_type(name, value, "a number"));
+    }
+    value.extract::<f64>().map_err(|_| wrong_type(name, value, "a number"))
+}
+
+/// [`real`], or `None`.
+pub fn optional_real(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<f64>> {
+    value.filter(|v| !v.is_none()).map(|v| real(name, v)).transpose()
+}
+
+/// A bool (or numpy bool).
+pub fn flag(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
+    value.extract::<bool>().map_err(|_| wrong_type(name, value, "True or False"))
+}
+
+/// A string (a choice such as `memory_update`, whose values the core checks).
+pub fn text(name: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
+    value.extract::<String>().map_err(|_| wrong_type(name, value, "a str"))
+}
+
+/// Memory sizes per level, bottom first: a sequence of ints (the core checks their range).
+pub fn levels(value: &Bound<'_, PyAny>) -> PyResult<Vec<usize>> {
+    let expected = "a list of positive ints, e.g. [16, 16]";
+    if value.is_instance_of::<PyString>() || value.is_instance_of::<PyBytes>() {
+        return Err(wrong_type("levels", value, expected));
+    }
+    let items: Vec<Bound<'_, PyAny>> =
+        value.try_iter().map_err(|_| wrong_type("levels", value, expected))?.collect::<PyResult<_>>()?;
+    let all = shown(value);
+    items
+        .iter()
+        .enumerate()
+        .map(|(k, item)| {
+            let message = format!("{all}: level {} is {} (expected a positive int)", k + 1, shown(item));
+            match int("levels", item, "a positive int") {
+                Ok(Some(Int::Signed(v))) => usize::try_from(v).ok(),
+                Ok(Some(Int::Unsigned(v))) => usize::try_from(v).ok(),
+                Ok(None) => None,
+                Err(_) => return Err(raise(Error::wrong_type("levels", message))),
+            }
+            .ok_or_else(|| raise(Error::invalid("levels", message)))
+        })
+        .collect()
+}
+
+/// A Python value as JSON: `None`, bools, ints, finite floats, strings, lists, tuples and dicts
+/// with string keys (numpy scalars as their Python counterparts).
+pub fn to_json(name: &str, value: &Bound<'_, PyAny>) -> PyResult<Value> {
+    let expected = "a number, a str, a bool, None, or a list or dict of them";
+    if value.is_none() {
+        return Ok(Value::Null);
+    }
+    if value.is_instance_of::<PyBool>() {
+        return Ok(Value::Bool(value.extract()?));
+    }
+    if let Ok(s) = value.cast::<PyString>() {
+        return Ok(Value::String(s.to_cow()?.into_owned()));
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        let items: Vec<Bound<'_, PyAny>> = value.extract()?;
+        return items.iter().map(|item| to_json(name, item)).collect();
+    }
+    if let Ok(dict) = value.cast::<PyDict>() {
+        let mut map = Map::new();
+        for (key, item) in dict {
+            let key: String = key.extract().map_err(|_| wrong_type(name, &key, "a str key"))?;
+            let inner = to_json(&format!("{name}.{key}"), &item)?;
+            map.insert(key, inner);
+        }
+        return Ok(Value::Object(map));
+    }
+    if value.is_instance_of::<PyInt>() || (!value.is_instance_of::<PyFloat>() && value.hasattr("__index__")?) {
+        return match int(name, value, expected)? {
+            Some(Int::Signed(v)) => Ok(v.into()),
+            Some(Int::Unsigned(v)) => Ok(v.into()),
+            None => Err(raise(Error::invalid(name, format!("{} (expected an int of 64 bits)", shown(value))))),
+        };
+    }
+    let x = value.extract::<f64>().map_err(|_| wrong_type(name, value, expected))?;
+    Number::from_f64(x)
+        .map(Value::Number)
+        .ok_or_else(|| raise(Error::invalid(name, format!("{} (expected a finite number)", shown(value)))))
+}
+
+/// A JSON value as the Python object `json.loads` would make of it.
+pub fn to_py<'py>(py: Python<'py>, value: &Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match value {
+        Value::Null => py.None().into_bound(py),
+        Value::Bool(b) => PyBool::new(py, *b).to_owned().into_any(),
+        Value::Number(n) => match (n.as_i64(), n.as_u64()) {
+            (Some(i), _) => i.into_pyobject(py)?.into_any(),
+            (None, Some(u)) => u.into_pyobject(py)?.into_any(),
+            _ => n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
+        },
+        Value::String(s) => PyString::new(py, s).into_any(),
+        Value::Array(items) => {
+            PyList::new(py, items.iter().map(|v| to_py(py, v)).collect::<PyResult<Vec<_>>>()?)?.into_any()
+        }
+        Value::Object(map) => {
+            let dict = PyDict::new(py);
+            for (k, v) in map {
+                dict.set_item(k, to_py(py, v)?)?;
+            }
+            dict.into_any()
+        }
+    })
+}
+
+/// A JSON object from a Python mapping (`None`: an empty object).
+pub fn object(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Value> {
+    match value.filter(|v| !v.is_none()) {
+        None => Ok(Value::Object(Map::new())),
+        Some(v) if v.is_instance_of::<PyDict>() => to_json(name, v),
+        Some(v) => Err(wrong_type(name, v, "a dict")),
+    }
+}
+
+/// `(16, 16)`: a shape as Python prints it.
+pub fn shape_text(dims: &[usize]) -> String {
+    match dims {
+        [one] => format!("({one},)"),
+        _ => format!("({})", dims.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")),
+    }
+}

@@ -1,0 +1,62 @@
+//! The exceptions of `cehmm` and the one mapping of core errors to them.
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+
+use ceworld::Error;
+
+create_exception!(cehmm, CehmmError, PyValueError, "Base class of the errors raised by cehmm (a ValueError).");
+create_exception!(
+    cehmm,
+    InvalidArgumentError,
+    CehmmError,
+    "An argument outside its domain; the message names it, its value and what was expected."
+);
+create_exception!(
+    cehmm,
+    PolicyFormatError,
+    CehmmError,
+    "A policy file or table that is not a valid cehmm policy (model §6): wrong shape, negative or \
+     non-finite entry, row not summing to 1, bad JSON."
+);
+create_exception!(
+    cehmm,
+    PolicyMismatchError,
+    CehmmError,
+    "A policy used with a world whose numbers of observations or decisions differ from the policy's."
+);
+
+/// The one mapping of core errors to Python exceptions. `Error::WrongType` becomes `TypeError`;
+/// `Error::Io` the built-in `OSError` subclass of its errno (`FileNotFoundError`, ...), with
+/// `filename`.
+pub fn raise(error: Error) -> PyErr {
+    let message = error.to_string();
+    match error {
+        Error::InvalidArgument { .. } => InvalidArgumentError::new_err(message),
+        Error::WrongType { .. } => PyTypeError::new_err(message),
+        Error::PolicyFormat { .. } => PolicyFormatError::new_err(message),
+        Error::Mismatch(_) => PolicyMismatchError::new_err(message),
+        Error::Memory { .. } => PyMemoryError::new_err(message),
+        Error::Io { path, source } => match source.raw_os_error() {
+            Some(errno) => {
+                let text = source.to_string();
+                let text = text.strip_suffix(&format!(" (os error {errno})")).unwrap_or(&text).to_string();
+                PyOSError::new_err((errno, text, path.display().to_string()))
+            }
+            None => PyOSError::new_err(message),
+        },
+    }
+}
+
+/// `.map_err(raise)` for a core result.
+pub trait OrRaise<T> {
+    /// The value, or the error as a Python exception.
+    fn or_raise(self) -> PyResult<T>;
+}
+
+impl<T> OrRaise<T> for Result<T, Error> {
+    fn or_raise(self) -> PyResult<T> {
+        self.map_err(raise)
+    }
+}

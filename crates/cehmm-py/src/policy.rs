@@ -1,0 +1,229 @@
+//! `cehmm._core.Policy`: an HHMM policy with its world and provenance (`ceworld::PolicyFile`,
+//! model §6); wrapped by `cehmm.Policy`.
+
+use std::path::PathBuf;
+
+use numpy::ndarray::{ArrayD, IxDyn};
+use numpy::{IntoPyArray, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde_json::{Value, json};
+
+use ceworld::evaluate::{check_fits, rollout};
+use ceworld::{Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
+
+use crate::convert::{count, levels, object, optional_count, seed, shape_text, text, to_py};
+use crate::errors::{OrRaise, raise};
+use crate::results::{PyEvaluation, PyRollout};
+use crate::world::PyWorld;
+
+#[pyclass(module = "cehmm._core", name = "Policy", frozen)]
+pub struct PyPolicy {
+    pub file: PolicyFile,
+}
+
+impl PyPolicy {
+    pub fn new(policy: Hhmm, world: Value, provenance: Value) -> Self {
+        PyPolicy { file: PolicyFile { policy, world, provenance } }
+    }
+}
+
+/// A policy table read from numpy, checked against its expected shape.
+fn table_entries(name: &str, array: &PyReadonlyArrayDyn<'_, f64>, dims: &[usize], out: &mut Vec<f64>) -> PyResult<()> {
+    if array.shape() != dims {
+        return Err(raise(Error::format(format!(
+            "{name} has shape {} (expected {})",
+            shape_text(array.shape()),
+            shape_text(dims)
+        ))));
+    }
+    out.extend(array.as_array().iter().copied());
+    Ok(())
+}
+
+/// A table's size along `axis`, or a format error naming the table and the rank it needs.
+fn dim(name: &str, array: &PyReadonlyArrayDyn<'_, f64>, rank: usize, axes: &str, axis: usize) -> PyResult<usize> {
+    if array.ndim() != rank {
+        return Err(raise(Error::format(format!(
+            "{name} has shape {} (expected {rank} axes {axes})",
+            shape_text(array.shape())
+        ))));
+    }
+    Ok(array.shape()[axis])
+}
+
+#[pymethods]
+impl PyPolicy {
+    /// The starting policy `init` (`"uniform"`, `"random"` drawn from `seed`, or `"clock"`) with
+    /// `levels` sized for `world`.
+    #[staticmethod]
+    fn start(
+        world: &PyWorld,
+        levels: &Bound<'_, PyAny>,
+        init: &Bound<'_, PyAny>,
+        seed: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let init: Init = text("init", init)?.parse().or_raise()?;
+        let (sizes, seed) = (self::levels(levels)?, self::seed("seed", seed)?);
+        let policy = with_world!(&world.world, w => init.policy(w, &sizes, seed)).or_raise()?;
+        Ok(Self::new(policy, world.world.to_json(), json!({})))
+    }
+
+    /// A policy from float64 tables; the layout is read from the shapes, then every shape and
+    /// row is checked. With a world, the policy must fit it.
+    #[staticmethod]
+    #[pyo3(signature = (h0, h1, upper, world = None, provenance = None))]
+    fn from_tables(
+        h0: PyReadonlyArrayDyn<'_, f64>,
+        h1: PyReadonlyArrayDyn<'_, f64>,
+        upper: Vec<(PyReadonlyArrayDyn<'_, f64>, PyReadonlyArrayDyn<'_, f64>)>,
+        world: Option<&PyWorld>,
+        provenance: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let mut sizes = vec![dim("h0", &h0, 2, "(|M_1|, D)", 0)?];
+        let n_actions = dim("h0", &h0, 2, "(|M_1|, D)", 1)?;
+        let n_obs = dim("h1", &h1, 3, "(Y, U, |M_1|)", 0)?;
+        for (k, (start, step)) in upper.iter().enumerate() {
+            sizes.push(dim(&format!("upper[{k}].start"), start, 2, "(U, |M_l|)", 1)?);
+            dim(&format!("upper[{k}].step"), step, 3, "(|M_l-1|, U, |M_l|)", 0)?;
+        }
+        let layout = Layout::new(n_obs, n_actions, &sizes).map_err(|e| raise(Error::format(e.to_string())))?;
+        let mut probs = Vec::with_capacity(layout.len);
+        table_entries("h0", &h0, &layout.tables[0].dims, &mut probs)?;
+        table_entries("h1", &h1, &layout.tables[1].dims, &mut probs)?;
+        for (k, (start, step)) in upper.iter().enumerate() {
+            let level = k + 2;
+            let (start_dims, step_dims) =
+                (&layout.tables[Layout::start_table(level)].dims, &layout.tables[Layout::step_table(level)].dims);
+            table_entries(&format!("upper[{k}].start"), start, start_dims, &mut probs)?;
+            table_entries(&format!("upper[{k}].step"), step, step_dims, &mut probs)?;
+        }
+        let policy = Hhmm::from_flat(layout, probs).or_raise()?;
+        let world = match world {
+            Some(w) => {
+                with_world!(&w.world, w => check_fits(w, &policy)).or_raise()?;
+                w.world.to_json()
+            }
+            None => json!({}),
+        };
+        Ok(Self::new(policy, world, object("provenance", provenance)?))
+    }
+
+    /// Reads and checks a policy file (model §6).
+    #[staticmethod]
+    fn load(path: PathBuf) -> PyResult<Self> {
+        Ok(PyPolicy { file: PolicyFile::load(path).or_raise()? })
+    }
+
+    /// Reads and checks a policy document (model §6) from its JSON text.
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<Self> {
+        let doc: Value = serde_json::from_str(text).map_err(|e| raise(Error::format(format!("not JSON: {e}"))))?;
+        Ok(PyPolicy { file: PolicyFile::from_json(&doc).or_raise()? })
+    }
+
+    /// Writes the policy file (model §6).
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        self.file.save(path).or_raise()
+    }
+
+    /// The policy document (model §6) as JSON text.
+    fn to_json(&self) -> String {
+        self.file.to_json().to_string()
+    }
+
+    /// Memory sizes per level, bottom first.
+    #[getter]
+    fn levels(&self) -> Vec<usize> {
+        self.file.policy.levels().to_vec()
+    }
+
+    /// Number of observations `Y`.
+    #[getter]
+    fn n_obs(&self) -> usize {
+        self.file.policy.layout().n_obs
+    }
+
+    /// Number of decisions `D`.
+    #[getter]
+    fn n_actions(&self) -> usize {
+        self.file.policy.layout().n_actions
+    }
+
+    /// The paper's count of free parameters (start tables excluded).
+    #[getter]
+    fn parameter_count(&self) -> usize {
+        self.file.policy.layout().parameter_count()
+    }
+
+    /// The `"world"` object of the file.
+    #[getter]
+    fn world<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.file.world)
+    }
+
+    /// The `"provenance"` object of the file.
+    #[getter]
+    fn provenance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.file.provenance)
+    }
+
+    /// `{"h0": array, "h1": array, "upper": [{"start": array, "step": array}, ...]}`, float64,
+    /// shapes as in model §6.
+    fn tables<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let h = &self.file.policy;
+        let layout = h.layout();
+        let array = |index: usize| {
+            let dims = &layout.tables[index].dims;
+            ArrayD::from_shape_vec(IxDyn(dims), h.table(index).to_vec()).expect("table sizes match").into_pyarray(py)
+        };
+        let d = PyDict::new(py);
+        d.set_item("h0", array(0))?;
+        d.set_item("h1", array(1))?;
+        let mut upper = Vec::new();
+        for level in 2..=layout.depth() {
+            let entry = PyDict::new(py);
+            entry.set_item("start", array(Layout::start_table(level)))?;
+            entry.set_item("step", array(Layout::step_table(level)))?;
+            upper.push(entry);
+        }
+        d.set_item("upper", upper)?;
+        Ok(d)
+    }
+
+    /// Reward statistics over `episodes` fresh episodes (streams `(seed, Evaluate, 0, k)`).
+    #[pyo3(signature = (world, episodes, seed, threads = None))]
+    fn evaluate(
+        &self,
+        py: Python<'_>,
+        world: &PyWorld,
+        episodes: &Bound<'_, PyAny>,
+        seed: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyEvaluation> {
+        let (episodes, seed_, threads) =
+            (count("episodes", episodes)?, self::seed("seed", seed)?, optional_count("threads", threads)?);
+        let (world, policy) = (&world.world, &self.file.policy);
+        let evaluation = py
+            .detach(|| {
+                thread_pool(threads)?.install(|| with_world!(world, w => ceworld::evaluate(w, policy, episodes, seed_)))
+            })
+            .or_raise()?;
+        Ok(PyEvaluation(evaluation))
+    }
+
+    /// One recorded episode: episode `episode` of `evaluate(world, _, seed)`.
+    #[pyo3(signature = (world, seed, episode))]
+    fn rollout(
+        &self,
+        py: Python<'_>,
+        world: &PyWorld,
+        seed: &Bound<'_, PyAny>,
+        episode: &Bound<'_, PyAny>,
+    ) -> PyResult<PyRollout> {
+        let (seed, episode) = (self::seed("seed", seed)?, self::seed("episode", episode)?);
+        let (world, policy) = (&world.world, &self.file.policy);
+        let recorded = py.detach(|| with_world!(world, w => rollout(w, policy, seed, episode))).or_raise()?;
+        Ok(PyRollout(recorded))
+    }
+}

@@ -1,0 +1,313 @@
+//! `cehmm._core.QLearner` (a `ceworld::qlearn::AnyLearner`: Q-learning on any registered world
+//! with a known state) and the window evaluation of any policy; wrapped by `cehmm.qlearning`.
+
+use std::path::PathBuf;
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use ceworld::progress::LiveLine;
+use ceworld::qlearn::{AnyLearner, KnownState, QConfig, Ties, WindowConfig};
+use ceworld::{Error, World, thread_pool, with_learner};
+
+use crate::convert::{count, flag, optional_count, optional_real, real, seed, text, to_py};
+use crate::errors::{OrRaise, raise};
+use crate::policy::PyPolicy;
+use crate::results::PyWindowEvaluation;
+use crate::world::PyWorld;
+
+/// The window settings: the core's defaults, overridden by the keyword arguments given.
+fn window_config(settings: Option<&Bound<'_, PyDict>>) -> PyResult<WindowConfig> {
+    let mut config = WindowConfig::default();
+    for (key, value) in settings.into_iter().flatten() {
+        let key: String = key.extract()?;
+        let slot: &mut usize = match key.as_str() {
+            "window" => &mut config.window,
+            "episodes" => &mut config.episodes,
+            "chains" => &mut config.chains,
+            "windows_per_chain" => &mut config.windows_per_chain,
+            "burn_in" => {
+                config.burn_in = seed("burn_in", &value)?;
+                continue;
+            }
+            _ => {
+                return Err(raise(Error::invalid(
+                    "window setting",
+                    format!("{key:?} (expected one of burn_in, chains, episodes, window, windows_per_chain)"),
+                )));
+            }
+        };
+        *slot = count(&key, &value)?;
+    }
+    config.validate().or_raise()?;
+    Ok(config)
+}
+
+/// A `WindowEvaluation` of the report of `evaluate` with `reference` as 100 %.
+fn windows(
+    py: Python<'_>,
+    threads: Option<usize>,
+    reference: f64,
+    evaluate: impl FnOnce() -> ceworld::Result<ceworld::WindowReport> + Send,
+) -> PyResult<PyWindowEvaluation> {
+    let report = py.detach(|| thread_pool(threads)?.install(evaluate)).or_raise()?;
+    Ok(PyWindowEvaluation { report, reference })
+}
+
+/// An HHMM policy evaluated on windows of a continuing run, as the paper compares policies (see
+/// `ceworld::qlearn::evaluate_windows`).
+#[pyfunction]
+#[pyo3(signature = (policy, world, *, seed, threads, reference, **settings))]
+pub fn evaluate_policy_windows(
+    py: Python<'_>,
+    policy: &PyPolicy,
+    world: &PyWorld,
+    seed: &Bound<'_, PyAny>,
+    threads: Option<&Bound<'_, PyAny>>,
+    reference: &Bound<'_, PyAny>,
+    settings: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyWindowEvaluation> {
+    let (config, seed) = (window_config(settings)?, self::seed("seed", seed)?);
+    let (world, policy) = (&world.world, &policy.file.policy);
+    let threads = optional_count("threads", threads)?;
+    windows(py, threads, real("reference", reference)?, || {
+        ceworld::qlearn::evaluate_policy_windows(world, policy, &config, seed)
+    })
+}
+
+/// The learning settings from their Python values.
+fn q_config(
+    gamma: &Bound<'_, PyAny>,
+    alpha: &Bound<'_, PyAny>,
+    seed: &Bound<'_, PyAny>,
+    ties: &Bound<'_, PyAny>,
+) -> PyResult<QConfig> {
+    Ok(QConfig {
+        gamma: real("gamma", gamma)?,
+        alpha: real("alpha", alpha)?,
+        seed: self::seed("seed", seed)?,
+        ties: Ties::parse(&text("ties", ties)?).or_raise()?,
+    })
+}
+
+/// A Q-learning run: table, counters, random stream and world state.
+#[pyclass(module = "cehmm._core", name = "QLearner")]
+pub struct PyQLearner {
+    learner: AnyLearner,
+}
+
+#[pymethods]
+impl PyQLearner {
+    /// A fresh run with a zero table (refused with `MemoryError` when it would not fit).
+    #[new]
+    #[pyo3(signature = (world, *, gamma, alpha, seed, ties))]
+    fn new(
+        py: Python<'_>,
+        world: &PyWorld,
+        gamma: &Bound<'_, PyAny>,
+        alpha: &Bound<'_, PyAny>,
+        seed: &Bound<'_, PyAny>,
+        ties: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let config = q_config(gamma, alpha, seed, ties)?;
+        let world = world.world.clone();
+        Ok(PyQLearner { learner: py.detach(|| AnyLearner::new(world, config)).or_raise()? })
+    }
+
+    /// Reads a run saved by `save` (or a `ceworld qlearn` checkpoint).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        Ok(PyQLearner { learner: py.detach(|| AnyLearner::load(path)).or_raise()? })
+    }
+
+    /// Reads the run saved in `path` to continue it: it must have been made in `world` with
+    /// these settings.
+    #[staticmethod]
+    #[pyo3(signature = (path, world, *, gamma, alpha, seed, ties))]
+    #[allow(clippy::too_many_arguments)]
+    fn resume(
+        py: Python<'_>,
+        path: PathBuf,
+        world: &PyWorld,
+        gamma: &Bound<'_, PyAny>,
+        alpha: &Bound<'_, PyAny>,
+        seed: &Bound<'_, PyAny>,
+        ties: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        let config = q_config(gamma, alpha, seed, ties)?;
+        let world = &world.world;
+        Ok(PyQLearner { learner: py.detach(|| AnyLearner::resume(path, world, &config)).or_raise()? })
+    }
+
+    /// Writes the run (header and table), atomically.
+    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        let learner = &self.learner;
+        py.detach(|| with_learner!(learner, q => q.save(path))).or_raise()
+    }
+
+    /// Runs until `until` updates in all; Ctrl-C stops between chunks of updates (after saving
+    /// the checkpoint, when there is one); returns whether it was interrupted.
+    #[pyo3(signature = (until, *, progress, checkpoint = None, checkpoint_every = None))]
+    fn train(
+        &mut self,
+        py: Python<'_>,
+        until: &Bound<'_, PyAny>,
+        progress: &Bound<'_, PyAny>,
+        checkpoint: Option<PathBuf>,
+        checkpoint_every: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<bool> {
+        let until = self::seed("iterations", until)?;
+        let progress = flag("progress", progress)?;
+        let every = optional_real("checkpoint_every", checkpoint_every)?;
+        let learner = &mut self.learner;
+        let outcome = py
+            .detach(|| {
+                with_learner!(learner, q => {
+                    let mut line = progress.then(LiveLine::stderr);
+                    let outcome = q.train(until, checkpoint.as_deref(), every, |p| {
+                        if let Some(line) = &mut line {
+                            line.update(p.line());
+                        }
+                        crate::flow_after_signals()
+                    });
+                    if let Some(line) = line {
+                        line.finish();
+                    }
+                    outcome
+                })
+            })
+            .or_raise()?;
+        Ok(outcome.interrupted)
+    }
+
+    /// The greedy policy evaluated on windows of `world`; ties broken as in learning unless
+    /// `ties` says otherwise.
+    #[pyo3(signature = (world, *, seed, threads, reference, ties, **settings))]
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_windows(
+        &self,
+        py: Python<'_>,
+        world: &PyWorld,
+        seed: &Bound<'_, PyAny>,
+        threads: Option<&Bound<'_, PyAny>>,
+        reference: &Bound<'_, PyAny>,
+        ties: Option<&Bound<'_, PyAny>>,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PyWindowEvaluation> {
+        let (config, seed) = (window_config(settings)?, self::seed("seed", seed)?);
+        let ties = match ties.filter(|t| !t.is_none()) {
+            Some(t) => Some(Ties::parse(&text("ties", t)?).or_raise()?),
+            None => None,
+        };
+        let (learner, world) = (&self.learner, &world.world);
+        let threads = optional_count("threads", threads)?;
+        windows(py, threads, real("reference", reference)?, || learner.evaluate_windows(world, ties, &config, seed))
+    }
+
+    /// Updates run so far.
+    #[getter]
+    fn updates(&self) -> u64 {
+        with_learner!(&self.learner, q => q.updates())
+    }
+
+    /// Number of known states (rows of the table).
+    #[getter]
+    fn n_states(&self) -> usize {
+        with_learner!(&self.learner, q => q.table().n_states())
+    }
+
+    /// Number of actions (columns of the table).
+    #[getter]
+    fn n_actions(&self) -> usize {
+        with_learner!(&self.learner, q => q.table().n_actions())
+    }
+
+    /// Size of the table in bytes.
+    #[getter]
+    fn table_bytes(&self) -> u64 {
+        with_learner!(&self.learner, q => q.table().bytes())
+    }
+
+    /// Discount `γ`.
+    #[getter]
+    fn gamma(&self) -> f64 {
+        with_learner!(&self.learner, q => q.config().gamma)
+    }
+
+    /// Learning rate `α`.
+    #[getter]
+    fn alpha(&self) -> f64 {
+        with_learner!(&self.learner, q => q.config().alpha)
+    }
+
+    /// Seed of the run's random stream.
+    #[getter]
+    fn seed(&self) -> u64 {
+        with_learner!(&self.learner, q => q.config().seed)
+    }
+
+    /// How greedy ties are broken: `"random"` or `"lowest"`.
+    #[getter]
+    fn ties(&self) -> &'static str {
+        with_learner!(&self.learner, q => q.config().ties.as_str())
+    }
+
+    /// Sum of the rewards of every update so far.
+    #[getter]
+    fn reward_total(&self) -> f64 {
+        with_learner!(&self.learner, q => q.reward_total())
+    }
+
+    /// Seconds spent learning, over every session.
+    #[getter]
+    fn seconds(&self) -> f64 {
+        with_learner!(&self.learner, q => q.seconds())
+    }
+
+    /// The header of the run's file (settings, counters, random stream, world state) as a dict.
+    fn header<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &with_learner!(&self.learner, q => q.header()))
+    }
+
+    /// The world the table was learnt in.
+    fn world(&self) -> PyWorld {
+        PyWorld { world: self.learner.world() }
+    }
+
+    /// A copy of the table, float32, shape `(n_states, n_actions)`.
+    fn table<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
+        with_learner!(&self.learner, q => {
+            let t = q.table();
+            let values = py.detach(|| t.values().to_vec());
+            Array2::from_shape_vec((t.n_states(), t.n_actions()), values).expect("the table's shape").into_pyarray(py)
+        })
+    }
+
+    /// `Q(s, ·)`, float32, shape `(n_actions,)`.
+    fn row<'py>(&self, py: Python<'py>, state: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let state = count("state", state)?;
+        with_learner!(&self.learner, q => {
+            let t = q.table();
+            if state >= t.n_states() {
+                return Err(raise(Error::invalid("state", format!("{state} (expected < {})", t.n_states()))));
+            }
+            Ok(PyArray1::from_slice(py, t.row(state)))
+        })
+    }
+
+    /// The known state of a world state (as `World::describe` writes it) seen through
+    /// observation `y`.
+    fn state_index(&self, state: Vec<i64>, y: &Bound<'_, PyAny>) -> PyResult<usize> {
+        let y = count("y", y)?;
+        with_learner!(&self.learner, q => {
+            let world = q.world();
+            if y >= world.n_observations() {
+                return Err(raise(Error::invalid("y", format!("{y} (expected < {})", world.n_observations()))));
+            }
+            let state = world.restore(&state).map_err(|e| raise(Error::invalid("state", e.to_string())))?;
+            Ok(world.known_state(&state, y))
+        })
+    }
+}
