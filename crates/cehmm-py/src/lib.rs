@@ -20,19 +20,10 @@ mod optimize;
 mod policy;
 mod qlearn;
 mod results;
+mod signals;
 mod world;
 
 use pyo3::prelude::*;
-
-/// Whether a long run goes on, asked between its iterations: the interpreter's signal handlers
-/// run here, and a pending `KeyboardInterrupt` is consumed, so that the caller gets the run so
-/// far, marked interrupted.
-pub(crate) fn flow_after_signals() -> ceworld::Flow {
-    match Python::attach(|py| py.check_signals()) {
-        Ok(()) => ceworld::Flow::Continue,
-        Err(_) => ceworld::Flow::Stop,
-    }
-}
 
 /// `cehmm._core`: the compiled engine; use the `cehmm` package instead.
 #[pymodule(gil_used = false)]

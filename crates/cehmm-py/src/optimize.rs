@@ -138,7 +138,7 @@ pub fn optimize(
                 if let Some(line) = &mut line {
                     line.update(record);
                 }
-                crate::flow_after_signals()
+                crate::signals::flow_after_signals()
             });
             if let Some(line) = line {
                 line.finish();

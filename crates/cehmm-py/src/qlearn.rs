@@ -170,7 +170,7 @@ impl PyQLearner {
                         if let Some(line) = &mut line {
                             line.update(p.line());
                         }
-                        crate::flow_after_signals()
+                        crate::signals::flow_after_signals()
                     });
                     if let Some(line) = line {
                         line.finish();

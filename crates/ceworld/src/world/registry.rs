@@ -27,6 +27,9 @@ pub struct Entry {
     pub build: fn(&Map<String, Value>) -> Result<AnyWorld>,
 }
 
+/// The world the command line uses when none is named: the paper's.
+pub const DEFAULT_WORLD: &str = TargetTracking::NAME;
+
 /// Every registered world.
 pub const REGISTRY: &[Entry] = &[Entry {
     name: TargetTracking::NAME,

@@ -70,7 +70,7 @@ enum Command {
 pub(crate) struct WorldArgs {
     /// The world, by its name in the registry (`target-tracking`: the paper's; its parameters
     /// are --case and --param).
-    #[arg(long, default_value = ceworld::world::tracking::TargetTracking::NAME)]
+    #[arg(long, default_value = ceworld::world::registry::DEFAULT_WORLD)]
     world: String,
     /// Target tracking's case: 1 fixed target, 2 moving target unobserved, 3 moving target
     /// observed (default: the world's, 3; the exact optimum is known for case 1).
