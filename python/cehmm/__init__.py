@@ -16,8 +16,9 @@ Example:
 Errors: an argument of the wrong type raises ``TypeError`` (numpy integers and floats are taken
 where Python ints and floats are); every other error of the engine is a :class:`CehmmError` (a
 ``ValueError``): :class:`InvalidArgumentError` (an argument out of its domain),
-:class:`PolicyFormatError` (an invalid policy file or table) and :class:`PolicyMismatchError`
-(a policy used with a world of other sizes). A file that cannot be read or written raises the
+:class:`PolicyFormatError` (an invalid policy file or table), :class:`ModelFormatError` (an
+invalid ``.pomdp`` file) and :class:`PolicyMismatchError` (a policy used with a world of other
+sizes, or a model file that changed since the policy was made). A file that cannot be read or written raises the
 built-in ``OSError`` subclass of its errno (``FileNotFoundError``, ``PermissionError``, ...).
 """
 
@@ -27,13 +28,16 @@ from ._core import (
     ENGINE_VERSION,
     CehmmError,
     Evaluation,
+    ExactValue,
     InvalidArgumentError,
+    ModelFormatError,
     PolicyFormatError,
     PolicyMismatchError,
     Rollout,
 )
 from .optimizer import OptimizeResult, optimize
 from .policy import Policy
+from .pomdp import PomdpWorld
 from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
 from .tracking import TargetTracking
 from .world import World
@@ -46,11 +50,14 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree wi
 __all__ = [
     "CehmmError",
     "Evaluation",
+    "ExactValue",
     "InvalidArgumentError",
+    "ModelFormatError",
     "OptimizeResult",
     "Policy",
     "PolicyFormatError",
     "PolicyMismatchError",
+    "PomdpWorld",
     "QLearner",
     "Rollout",
     "TargetTracking",

@@ -16,7 +16,9 @@ __all__ = [
     "InvalidArgumentError",
     "PolicyFormatError",
     "PolicyMismatchError",
+    "ModelFormatError",
     "World",
+    "ExactValue",
     "Policy",
     "Evaluation",
     "Rollout",
@@ -62,6 +64,9 @@ class InvalidArgumentError(CehmmError):
 
 class PolicyFormatError(CehmmError):
     """An invalid policy file or table (``ceworld::Error::PolicyFormat``)."""
+
+class ModelFormatError(CehmmError):
+    """An invalid ``.pomdp`` file (``ceworld::Error::ModelFormat``)."""
 
 class PolicyMismatchError(CehmmError):
     """A policy whose observation or decision count differs from the world's (``ceworld::Error::Mismatch``)."""
@@ -112,6 +117,20 @@ class World:
     def to_dict(self) -> dict[str, Any]: ...
     def state_labels(self) -> list[str]: ...
     def exact_optimum(self) -> float: ...
+    def model(self) -> dict[str, Any]: ...
+
+@final
+class ExactValue:
+    """``ceworld::exact::ExactValue``: an exact value on a tabular world."""
+
+    def __eq__(self, value: object, /) -> bool: ...
+    @property
+    def value(self) -> float: ...
+    @property
+    def steps(self) -> int: ...
+    @property
+    def tail_bound(self) -> float: ...
+    def __float__(self) -> float: ...
 
 @final
 class Evaluation:
@@ -200,6 +219,7 @@ class Policy:
     def tables(self) -> TablesDict: ...
     def evaluate(self, world: World, episodes: int, seed: int, threads: int | None = None) -> Evaluation: ...
     def rollout(self, world: World, seed: int, episode: int) -> Rollout: ...
+    def evaluate_exact(self, world: World, horizon: int | None, infinite: bool, tolerance: float) -> ExactValue: ...
 
 @final
 class OptimizeOutcome:

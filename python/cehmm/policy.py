@@ -9,7 +9,7 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from ._core import Evaluation, InvalidArgumentError, PolicyFormatError, Rollout
+from ._core import Evaluation, ExactValue, InvalidArgumentError, PolicyFormatError, Rollout
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -191,6 +191,28 @@ class Policy:
             PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
         """
         return self._core.evaluate(core_world(self._world(world)), episodes, seed, threads)
+
+    def evaluate_exact(
+        self,
+        world: World | None = None,
+        *,
+        horizon: int | None = None,
+        infinite: bool = False,
+        tolerance: float = 1e-6,
+    ) -> ExactValue:
+        """The exact expected reward on a tabular world (:class:`~cehmm.PomdpWorld`, model §7).
+
+        Args:
+            world: the world (default: the one stored with the policy).
+            horizon: steps (default: the world's horizon).
+            infinite: the infinite-horizon discounted value instead (a discount below 1),
+                computed to within ``tolerance`` (absolute; see :attr:`ExactValue.tail_bound`).
+
+        Raises:
+            InvalidArgumentError: the world is not tabular, or ``infinite`` with a discount of 1.
+            PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
+        """
+        return self._core.evaluate_exact(core_world(self._world(world)), horizon, infinite, tolerance)
 
     def rollout(self, world: World | None = None, seed: int = 0, episode: int = 0) -> Rollout:
         """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``.

@@ -22,6 +22,13 @@ create_exception!(
 );
 create_exception!(
     cehmm,
+    ModelFormatError,
+    CehmmError,
+    "A model file (a Cassandra .pomdp file) that cannot be read as one; the message names the file, \
+     line and column, what was found and what was expected."
+);
+create_exception!(
+    cehmm,
     PolicyMismatchError,
     CehmmError,
     "A policy used with a world whose numbers of observations or decisions differ from the policy's."
@@ -37,6 +44,7 @@ pub fn raise(error: Error) -> PyErr {
         Error::WrongType { .. } => PyTypeError::new_err(message),
         Error::PolicyFormat { .. } => PolicyFormatError::new_err(message),
         Error::Mismatch(_) => PolicyMismatchError::new_err(message),
+        Error::ModelFormat(_) => ModelFormatError::new_err(message),
         Error::Memory { .. } => PyMemoryError::new_err(message),
         Error::Io { path, source } => match source.raw_os_error() {
             Some(errno) => {

@@ -29,7 +29,7 @@ use pyo3::prelude::*;
 #[pymodule(gil_used = false)]
 mod _core {
     #[pymodule_export]
-    use super::errors::{CehmmError, InvalidArgumentError, PolicyFormatError, PolicyMismatchError};
+    use super::errors::{CehmmError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError};
     #[pymodule_export]
     use super::optimize::{PyOptimizeOutcome, optimize};
     #[pymodule_export]
@@ -37,7 +37,7 @@ mod _core {
     #[pymodule_export]
     use super::qlearn::{PyQLearner, evaluate_policy_windows};
     #[pymodule_export]
-    use super::results::{PyEvaluation, PyRollout, PyWindowEvaluation};
+    use super::results::{PyEvaluation, PyExactValue, PyRollout, PyWindowEvaluation};
     #[pymodule_export]
     use super::world::PyWorld;
 

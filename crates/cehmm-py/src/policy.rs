@@ -10,11 +10,11 @@ use pyo3::types::PyDict;
 use serde_json::{Value, json};
 
 use ceworld::evaluate::{check_fits, rollout};
-use ceworld::{Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
+use ceworld::{AnyWorld, Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
 
-use crate::convert::{count, levels, object, optional_count, seed, shape_text, text, to_py};
+use crate::convert::{count, flag, levels, object, optional_count, real, seed, shape_text, text, to_py};
 use crate::errors::{OrRaise, raise};
-use crate::results::{PyEvaluation, PyRollout};
+use crate::results::{PyEvaluation, PyExactValue, PyRollout};
 use crate::world::PyWorld;
 
 #[pyclass(module = "cehmm._core", name = "Policy", frozen)]
@@ -225,5 +225,37 @@ impl PyPolicy {
         let (world, policy) = (&world.world, &self.file.policy);
         let recorded = py.detach(|| with_world!(world, w => rollout(w, policy, seed, episode))).or_raise()?;
         Ok(PyRollout(recorded))
+    }
+
+    /// The exact expected reward on a tabular world (model §7): at `horizon` (the world's when
+    /// `None`), or with `infinite` the infinite-horizon value to within `tolerance`.
+    #[pyo3(signature = (world, horizon, infinite, tolerance))]
+    fn evaluate_exact(
+        &self,
+        py: Python<'_>,
+        world: &PyWorld,
+        horizon: Option<&Bound<'_, PyAny>>,
+        infinite: &Bound<'_, PyAny>,
+        tolerance: &Bound<'_, PyAny>,
+    ) -> PyResult<PyExactValue> {
+        let AnyWorld::Pomdp(world) = &world.world else {
+            return Err(raise(Error::invalid(
+                "world",
+                format!("{} (exact evaluation needs a tabular world, e.g. cehmm.PomdpWorld)", world.world.name()),
+            )));
+        };
+        let (horizon, infinite, tolerance) =
+            (optional_count("horizon", horizon)?, flag("infinite", infinite)?, real("tolerance", tolerance)?);
+        let policy = &self.file.policy;
+        let value = py
+            .detach(|| {
+                if infinite {
+                    ceworld::exact::infinite_horizon(world, policy, tolerance)
+                } else {
+                    ceworld::exact::finite_horizon(world, policy, horizon)
+                }
+            })
+            .or_raise()?;
+        Ok(PyExactValue(value))
     }
 }

@@ -7,6 +7,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use ceworld::evaluate::Rollout;
+use ceworld::exact::ExactValue;
 use ceworld::qlearn::{WindowReport, percent};
 use ceworld::{Error, Evaluation};
 
@@ -189,5 +190,41 @@ impl PyWindowEvaluation {
              {:.0}/{:.0}/{:.0} % over {} windows; of {r})",
             a.0, a.1, a.2, self.report.from_start.episodes, b.0, b.1, b.2, self.report.continuing.episodes
         )
+    }
+}
+
+/// An exact value of a policy on a tabular world (model §7): the expected (discounted) reward,
+/// the steps of the recursion, and a bound on what the steps not taken could add (0 at a
+/// finite horizon).
+#[pyclass(module = "cehmm", name = "ExactValue", frozen, eq)]
+#[derive(PartialEq)]
+pub struct PyExactValue(pub ExactValue);
+
+#[pymethods]
+impl PyExactValue {
+    /// The expected (discounted) reward.
+    #[getter]
+    fn value(&self) -> f64 {
+        self.0.value
+    }
+
+    /// Steps of the recursion (the horizon, or the steps taken to reach the tolerance).
+    #[getter]
+    fn steps(&self) -> usize {
+        self.0.steps
+    }
+
+    /// A bound on what the steps not taken could add (0 at a finite horizon).
+    #[getter]
+    fn tail_bound(&self) -> f64 {
+        self.0.tail_bound
+    }
+
+    fn __float__(&self) -> f64 {
+        self.0.value
+    }
+
+    fn __repr__(&self) -> String {
+        format!("ExactValue(value={}, steps={}, tail_bound={:.1e})", self.0.value, self.0.steps, self.0.tail_bound)
     }
 }

@@ -1,15 +1,17 @@
 //! `cehmm._core.World`: any registered world (`ceworld::AnyWorld`), built by name through the
 //! core's registry; the Python world classes (`cehmm.TargetTracking`, ...) wrap it.
 
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde_json::{Map, Value};
 
 use ceworld::world::registry;
-use ceworld::{AnyWorld, World, with_world};
+use ceworld::{AnyWorld, Error, World, with_world};
 
 use crate::convert::{to_json, to_py};
-use crate::errors::OrRaise;
+use crate::errors::{OrRaise, raise};
 
 /// A registered world with its parameters.
 #[pyclass(module = "cehmm._core", name = "World", frozen, eq)]
@@ -98,5 +100,31 @@ impl PyWorld {
     /// The best mean reward any policy can reach, where the world knows it exactly.
     fn exact_optimum(&self) -> PyResult<f64> {
         with_world!(&self.world, w => w.exact_optimum()).or_raise()
+    }
+
+    /// The model of a tabular world (model §7): names, the discount, the start distribution and
+    /// the tables `T[a, s, s']`, `O[a, s', o]` and the expected reward `R[a, s]` (costs negated).
+    fn model<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let AnyWorld::Pomdp(world) = &self.world else {
+            return Err(raise(Error::invalid("world", format!("{} (not a tabular world)", self.world.name()))));
+        };
+        let t = world.tables();
+        let p = &t.pomdp;
+        let (n_s, n_a, n_o) = (t.n_states(), t.n_actions(), t.n_observations());
+        let d = PyDict::new(py);
+        d.set_item("states", p.states.clone())?;
+        d.set_item("actions", p.actions.clone())?;
+        d.set_item("observations", p.observations.clone())?;
+        d.set_item("discount", t.gamma)?;
+        d.set_item("start", PyArray1::from_slice(py, &t.start))?;
+        let shaped = |values: Vec<f64>, dims: [usize; 3]| {
+            Array3::from_shape_vec(dims, values).expect("the table's shape").into_pyarray(py)
+        };
+        d.set_item("transition", shaped(p.transition.clone(), [n_a, n_s, n_s]))?;
+        d.set_item("observation", shaped(p.observation.clone(), [n_a, n_s, n_o]))?;
+        let reward: Vec<f64> = (0..n_a * n_s).map(|i| t.expected_reward(i % n_s, i / n_s)).collect();
+        d.set_item("reward", Array2::from_shape_vec((n_a, n_s), reward).expect("A × S").into_pyarray(py))?;
+        d.set_item("renormalised", p.renormalised.clone())?;
+        Ok(d)
     }
 }

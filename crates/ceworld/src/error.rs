@@ -34,6 +34,10 @@ pub enum Error {
         /// What is wrong, naming the key and the expected value.
         message: String,
     },
+    /// A model file (a Cassandra `.pomdp` file) that cannot be read as one; the message names
+    /// the file, the line and column, what was found and what was expected.
+    #[error("invalid model file {0}")]
+    ModelFormat(String),
     /// A table (the Q-learning baseline's) that would not fit in the memory the system reports
     /// available; refused before allocating.
     #[error("{what} needs {needed} bytes ({:.2} GiB) but only {available} bytes ({:.2} GiB) are available (MemAvailable in /proc/meminfo, or the cgroup limit)", *needed as f64 / (1u64 << 30) as f64, *available as f64 / (1u64 << 30) as f64)]

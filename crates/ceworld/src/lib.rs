@@ -18,6 +18,7 @@ pub mod ce;
 pub mod control;
 pub mod error;
 pub mod evaluate;
+pub mod exact;
 pub mod policy;
 pub mod progress;
 pub mod qlearn;
@@ -39,6 +40,7 @@ pub use qlearn::{
     evaluate_windows,
 };
 pub use world::World;
+pub use world::pomdp::{PomdpParams, PomdpWorld};
 pub use world::registry::AnyWorld;
 pub use world::tracking::{TargetTracking, TrackingParams};
 

@@ -41,10 +41,9 @@ impl AnyLearner {
     /// A fresh run with a zero table (refused when the world has no known state or the table
     /// would not fit in memory).
     pub fn new(world: AnyWorld, config: QConfig) -> Result<AnyLearner> {
-        #[allow(unreachable_patterns)] // every world registered today has a known state
         match world {
             AnyWorld::TargetTracking(w) => Ok(AnyLearner::TargetTracking(QLearner::new(w, config)?)),
-            other => Err(no_known_state(&other)),
+            other @ AnyWorld::Pomdp(_) => Err(no_known_state(&other)),
         }
     }
 
@@ -55,10 +54,9 @@ impl AnyLearner {
         let world = AnyWorld::from_json(header.get("world").unwrap_or(&Value::Null)).map_err(|e| {
             Error::PolicyFormat { path: Some(path.to_path_buf()), message: format!("the header's world: {e}") }
         })?;
-        #[allow(unreachable_patterns)]
         match world {
             AnyWorld::TargetTracking(w) => Ok(AnyLearner::TargetTracking(QLearner::load(path, w)?)),
-            other => Err(no_known_state(&other)),
+            other @ AnyWorld::Pomdp(_) => Err(no_known_state(&other)),
         }
     }
 
@@ -101,7 +99,6 @@ impl AnyLearner {
         config: &WindowConfig,
         seed: u64,
     ) -> Result<WindowReport> {
-        #[allow(unreachable_patterns)]
         match (self, world) {
             (AnyLearner::TargetTracking(q), AnyWorld::TargetTracking(w)) => {
                 let greedy = super::Greedy { table: q.table(), ties: ties.unwrap_or(q.config().ties) };
@@ -124,10 +121,9 @@ pub fn evaluate_policy_windows(
     config: &WindowConfig,
     seed: u64,
 ) -> Result<WindowReport> {
-    #[allow(unreachable_patterns)]
     match world {
         AnyWorld::TargetTracking(w) => evaluate_windows(w, policy, config, seed),
-        other => Err(Error::invalid(
+        other @ AnyWorld::Pomdp(_) => Err(Error::invalid(
             "world",
             format!("{} (the {} world cannot run as a continuing task)", other.to_json(), other.name()),
         )),

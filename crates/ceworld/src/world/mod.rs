@@ -3,6 +3,8 @@
 
 use crate::rng::EngineRng;
 
+pub mod cassandra;
+pub mod pomdp;
 pub mod registry;
 pub mod tracking;
 

@@ -8,6 +8,7 @@ use serde_json::{Map, Value};
 
 use crate::error::{Error, Result};
 use crate::world::World;
+use crate::world::pomdp::{PomdpParams, PomdpWorld};
 use crate::world::tracking::{TargetTracking, TrackingParams};
 
 /// Any registered world (the world's type, known at run time).
@@ -15,6 +16,8 @@ use crate::world::tracking::{TargetTracking, TrackingParams};
 pub enum AnyWorld {
     /// The paper's target-tracking world (model §4).
     TargetTracking(TargetTracking),
+    /// A tabular POMDP read from a Cassandra `.pomdp` file (model §7).
+    Pomdp(PomdpWorld),
 }
 
 /// One registered world.
@@ -31,13 +34,20 @@ pub struct Entry {
 pub const DEFAULT_WORLD: &str = TargetTracking::NAME;
 
 /// Every registered world.
-pub const REGISTRY: &[Entry] = &[Entry {
-    name: TargetTracking::NAME,
-    defaults: || object(serde_json::to_value(TrackingParams::default()).expect("parameters serialise")),
-    build: |params| {
-        Ok(AnyWorld::TargetTracking(TargetTracking::with_params(deserialize(TargetTracking::NAME, params)?)?))
+pub const REGISTRY: &[Entry] = &[
+    Entry {
+        name: TargetTracking::NAME,
+        defaults: || object(serde_json::to_value(TrackingParams::default()).expect("parameters serialise")),
+        build: |params| {
+            Ok(AnyWorld::TargetTracking(TargetTracking::with_params(deserialize(TargetTracking::NAME, params)?)?))
+        },
     },
-}];
+    Entry {
+        name: PomdpWorld::NAME,
+        defaults: || object(serde_json::to_value(PomdpParams::default()).expect("parameters serialise")),
+        build: |params| Ok(AnyWorld::Pomdp(PomdpWorld::with_params(deserialize(PomdpWorld::NAME, params)?)?)),
+    },
+];
 
 /// A world's parameter struct from a complete parameter object; a value its type cannot hold
 /// (`case: -1` for a `u8`) is refused naming the parameter.
@@ -96,6 +106,7 @@ impl AnyWorld {
     pub fn name(&self) -> &'static str {
         match self {
             AnyWorld::TargetTracking(_) => TargetTracking::NAME,
+            AnyWorld::Pomdp(_) => PomdpWorld::NAME,
         }
     }
 
@@ -126,6 +137,7 @@ macro_rules! with_world {
     ($world:expr, $w:ident => $body:expr) => {
         match $world {
             $crate::world::registry::AnyWorld::TargetTracking($w) => $body,
+            $crate::world::registry::AnyWorld::Pomdp($w) => $body,
         }
     };
 }
@@ -147,6 +159,10 @@ fn kind(value: &Value) -> &'static str {
 /// expected, a list of ints where a pair of ints is, ...) with [`Error::WrongType`]; the
 /// world's own checks then judge the value.
 fn check_kind(name: &str, default: &Value, value: &Value) -> Result<()> {
+    if default.is_null() || value.is_null() {
+        // An optional parameter (or one set back to its default): its type checks it.
+        return Ok(());
+    }
     let expected = match default {
         Value::Array(items) => items.first().map_or("a list", |first| match kind(first) {
             "an int" => "a list of ints",
@@ -191,7 +207,7 @@ mod tests {
         );
         assert_eq!(AnyWorld::from_json(&world.to_json()).unwrap(), world);
         assert_eq!(crate::with_world!(&world, w => w.horizon()), 50);
-        assert_eq!(names(), ["target-tracking"]);
+        assert_eq!(names(), ["target-tracking", "pomdp"]);
     }
 
     #[test]

@@ -45,6 +45,13 @@ enum Command {
         /// Worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Instead, compute the expected reward exactly (tabular worlds, model §7): at the
+        /// world's horizon, and for a discount below 1 also the infinite-horizon value.
+        #[arg(long)]
+        exact: bool,
+        /// Tolerance of the exact infinite-horizon value.
+        #[arg(long, default_value_t = ceworld::exact::DEFAULT_TOLERANCE, requires = "exact")]
+        tolerance: f64,
     },
     /// Print the exact optimum of a world (known for case 1, fixed target).
     Optimum {
@@ -68,17 +75,28 @@ enum Command {
 /// Which world: a name of the registry and its parameters.
 #[derive(clap::Args)]
 pub(crate) struct WorldArgs {
-    /// The world, by its name in the registry (`target-tracking`: the paper's; its parameters
-    /// are --case and --param).
-    #[arg(long, default_value = ceworld::world::registry::DEFAULT_WORLD)]
-    world: String,
+    /// The world, by its name in the registry: `target-tracking` (the default: the paper's; its
+    /// parameters are --case and --param) or `pomdp` (a Cassandra .pomdp file: see --pomdp).
+    #[arg(long)]
+    world: Option<String>,
     /// Target tracking's case: 1 fixed target, 2 moving target unobserved, 3 moving target
     /// observed (default: the world's, 3; the exact optimum is known for case 1).
     #[arg(long)]
     case: Option<u8>,
-    /// A world parameter KEY=VALUE (repeatable): for target tracking width, height, horizon,
-    /// `start_b`, `start_c`, `start_heading`, `reward_radius`, `observe_radius`, `target_cell`,
-    /// `target_rows`; lists as [a,b].
+    /// A tabular POMDP read from this Cassandra .pomdp file (the world `pomdp`, model §7); its
+    /// policy files record the file's SHA-256.
+    #[arg(long, value_name = "FILE.pomdp", conflicts_with_all = ["world", "case"])]
+    pomdp: Option<PathBuf>,
+    /// Steps per episode (the parameter `horizon`).
+    #[arg(long)]
+    horizon: Option<usize>,
+    /// The discount of a .pomdp world, instead of the file's (the parameter `discount`).
+    #[arg(long, requires = "pomdp")]
+    discount: Option<f64>,
+    /// A world parameter KEY=VALUE (repeatable; VALUE is JSON, or else a string): for target
+    /// tracking width, height, horizon, `start_b`, `start_c`, `start_heading`, `reward_radius`,
+    /// `observe_radius`, `target_cell`, `target_rows` (lists as [a,b]); for pomdp file,
+    /// horizon, discount.
     #[arg(long = "param", value_name = "KEY=VALUE")]
     params: Vec<String>,
 }
@@ -151,21 +169,36 @@ struct OptimizeArgs {
 /// The world `name` of the registry with `--case` (target tracking's case) and every
 /// `--param KEY=VALUE` over its defaults; giving the case twice is refused.
 pub(crate) fn world_from(args: &WorldArgs) -> Result<AnyWorld> {
-    let (name, case, params) = (args.world.as_str(), args.case, &args.params);
+    let name = match (&args.pomdp, &args.world) {
+        (Some(_), _) => ceworld::PomdpWorld::NAME,
+        (None, Some(name)) => name.as_str(),
+        (None, None) => ceworld::world::registry::DEFAULT_WORLD,
+    };
     let mut map = serde_json::Map::new();
-    for p in params {
+    for p in &args.params {
         let (key, raw) = p
             .split_once('=')
             .ok_or_else(|| Error::invalid("--param", format!("{p:?} (expected KEY=VALUE, e.g. horizon=50)")))?;
-        let v: Value = serde_json::from_str(raw)
-            .map_err(|e| Error::invalid("--param", format!("{key}={raw}: not a JSON value ({e})")))?;
+        // JSON, or else the text itself (a file name).
+        let v: Value = serde_json::from_str(raw).unwrap_or_else(|_| Value::String(raw.to_string()));
         if map.insert(key.to_string(), v).is_some() {
             return Err(Error::invalid("--param", format!("{key} given twice")));
         }
     }
-    if let Some(case) = case {
-        if map.insert("case".into(), case.into()).is_some() {
-            return Err(Error::invalid("--case", "given both as --case and as --param case=... (give it once)"));
+    let options: [(&str, &str, Option<Value>); 4] = [
+        ("--case", "case", args.case.map(Value::from)),
+        ("--pomdp", "file", args.pomdp.as_ref().map(|p| Value::from(p.display().to_string()))),
+        ("--horizon", "horizon", args.horizon.map(Value::from)),
+        ("--discount", "discount", args.discount.map(Value::from)),
+    ];
+    for (option, key, value) in options {
+        if let Some(value) = value
+            && map.insert(key.into(), value).is_some()
+        {
+            return Err(Error::invalid(
+                option,
+                format!("given both as {option} and as --param {key}=... (give it once)"),
+            ));
         }
     }
     AnyWorld::with_params(name, &map)
@@ -269,7 +302,29 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
 fn run() -> Result<()> {
     match Cli::parse().command {
         Command::Optimize(args) => run_optimize(&args),
-        Command::Evaluate { file, episodes, seed, threads } => {
+        Command::Evaluate { file, exact: true, tolerance, .. } => {
+            let f = PolicyFile::load(&file)?;
+            let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
+                return Err(Error::invalid("--exact", "the policy's world is not tabular (expected a pomdp world)"));
+            };
+            let started = Instant::now();
+            let h = ceworld::exact::finite_horizon(&world, &f.policy, None)?;
+            println!("{}: exact expected reward at horizon {}: {:.6}", file.display(), h.steps, h.value);
+            if world.tables().gamma < 1.0 {
+                let v = ceworld::exact::infinite_horizon(&world, &f.policy, tolerance)?;
+                println!(
+                    "{}: exact infinite-horizon value (discount {}): {:.6} (± {:.1e}, {} steps)",
+                    file.display(),
+                    world.tables().gamma,
+                    v.value,
+                    v.tail_bound,
+                    v.steps
+                );
+            }
+            eprintln!("({:.2}s)", started.elapsed().as_secs_f64());
+            Ok(())
+        }
+        Command::Evaluate { file, episodes, seed, threads, .. } => {
             let f = PolicyFile::load(&file)?;
             let world = AnyWorld::from_json(&f.world)?;
             let pool = thread_pool(threads)?;
