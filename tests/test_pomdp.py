@@ -118,3 +118,36 @@ def test_exact_evaluation_needs_a_tabular_world(case1: cehmm.TargetTracking, tig
     ejs = cehmm.PomdpWorld.from_file(DATA / "ejs1.POMDP", horizon=4)
     with pytest.raises(cehmm.InvalidArgumentError, match="discount"):
         cehmm.Policy.uniform(ejs, [1]).evaluate_exact(infinite=True)
+
+
+def listen_twice(world: cehmm.PomdpWorld) -> cehmm.Policy:
+    """Tiger's five-node controller, levels [5, 5] with m_2[t] = m_1[t-1]: listen; open the
+    door opposite to two agreeing observations in a row, else listen again."""
+    nodes, y_count = 5, 3
+    h0 = np.zeros((nodes, 3))
+    h0[[0, 1, 2], LISTEN] = 1
+    h0[3, OPEN_RIGHT] = h0[4, OPEN_LEFT] = 1
+    h1 = np.zeros((y_count, nodes, nodes))  # h1[y, previous node, node]
+    moves = {0: (1, 2), 1: (3, 0), 2: (0, 4), 3: (0, 0), 4: (0, 0)}  # on (tiger-left, tiger-right)
+    for previous, (on_left, on_right) in moves.items():
+        h1[0, previous, on_left] = h1[1, previous, on_right] = h1[2, previous, 0] = 1
+    start = np.eye(nodes)[[0]]
+    step = np.eye(nodes)[:, None, :]
+    return cehmm.Policy.from_tables({"h0": h0, "h1": h1, "upper": [{"start": start, "step": step}]}, world=world)
+
+
+def test_tigers_five_node_controller_reaches_the_sarsop_value(tiger: cehmm.PomdpWorld) -> None:
+    policy = listen_twice(tiger)
+    value = policy.evaluate_exact(infinite=True, tolerance=1e-9)
+    assert value.value == pytest.approx(19.3714, abs=1e-4)  # SARSOP's bound: 19.37 (SOURCES.md)
+    assert policy.graph(form="pg") == "0 0 1 2\n1 0 3 0\n2 0 0 4\n3 2 0 0\n4 1 0 0\n"
+    text = policy.graph()
+    assert text.startswith("initial: node 0 (1.000)\nnode 0 (memory [0, 0]): listen 1.000\n")
+    assert "  on tiger-left -> node 3 (1.000)" in text
+    graph = policy.graph(form="json")
+    assert graph["initial"] == [[0, 1.0]] and graph["nodes"][3]["decision"] == {"open-right": 1.0}
+    assert graph["nodes"][1]["next"] == {"tiger-left": [[3, 1.0]], "tiger-right": [[0, 1.0]]}
+    with pytest.raises(cehmm.InvalidArgumentError, match="not deterministic"):
+        cehmm.Policy.uniform(tiger, [2]).graph(form="pg")
+    stochastic = cehmm.Policy.uniform(tiger, [2]).graph(form="json")
+    assert len(stochastic["nodes"]) == 2 and stochastic["nodes"][0]["decision"]["listen"] == pytest.approx(1 / 3)

@@ -214,6 +214,24 @@ class Policy:
         """
         return self._core.evaluate_exact(core_world(self._world(world)), horizon, infinite, tolerance)
 
+    def graph(self, world: World | None = None, form: str = "text") -> Any:
+        """The policy as a finite-state controller (a policy graph) on a tabular world.
+
+        Its nodes are the memories reachable from the start; each node takes a decision and each
+        observation moves it to a next node, with the policy's probabilities.
+
+        Args:
+            world: the world (default: the one stored with the policy).
+            form: ``"text"`` (a str in the file's own names), ``"json"`` (a dict in those names)
+                or ``"pg"`` (pomdp-solve's policy-graph format ``N A Z1 Z2 ...``, node 0 the
+                initial one; deterministic policies only).
+
+        Raises:
+            InvalidArgumentError: the world is not tabular, or ``"pg"`` for a policy that is not
+                deterministic.
+        """
+        return self._core.graph(core_world(self._world(world)), form)
+
     def rollout(self, world: World | None = None, seed: int = 0, episode: int = 0) -> Rollout:
         """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``.
 

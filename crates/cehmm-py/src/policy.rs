@@ -258,4 +258,24 @@ impl PyPolicy {
             .or_raise()?;
         Ok(PyExactValue(value))
     }
+
+    /// The policy as a policy graph on a tabular world (`ceworld::policy::graph`): `"text"` in
+    /// the file's names, `"json"` (a dict), or `"pg"` (pomdp-solve's format; deterministic
+    /// policies only).
+    fn graph<'py>(&self, py: Python<'py>, world: &PyWorld, form: &str) -> PyResult<Bound<'py, PyAny>> {
+        let AnyWorld::Pomdp(world) = &world.world else {
+            return Err(raise(Error::invalid(
+                "world",
+                format!("{} (a policy graph needs a tabular world, e.g. cehmm.PomdpWorld)", world.world.name()),
+            )));
+        };
+        let graph = world.graph(&self.file.policy).or_raise()?;
+        let model = &world.tables().pomdp;
+        match form {
+            "text" => Ok(graph.describe(&model.actions, &model.observations).into_pyobject(py)?.into_any()),
+            "pg" => Ok(graph.to_pg().or_raise()?.into_pyobject(py)?.into_any()),
+            "json" => to_py(py, &graph.to_json(&model.actions, &model.observations)),
+            other => Err(raise(Error::invalid("form", format!("{other:?} (expected \"text\", \"json\" or \"pg\")")))),
+        }
+    }
 }

@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::evaluate::check_fits;
-use crate::policy::{Hhmm, Layout};
+use crate::policy::Hhmm;
 use crate::world::pomdp::PomdpWorld;
 
 /// The most steps an infinite-horizon evaluation runs before it reports its tail bound.
@@ -54,59 +54,30 @@ impl<'a> Kernel<'a> {
 
     /// The law of `(k', d)` after observation `y` with carried memory `k` (`first`: `t = 1`).
     fn law(&self, y: usize, k: usize, first: bool) -> Vec<(u32, u32, f64)> {
-        let levels = self.policy.levels();
-        let lambda = levels.len();
-        let mut prev = vec![0; lambda.saturating_sub(1)];
+        let mut previous = vec![0u16; self.policy.levels().len()];
         let mut rest = k;
-        for (slot, &size) in prev.iter_mut().zip(&self.carried) {
-            *slot = rest % size;
+        for (slot, &size) in previous.iter_mut().zip(&self.carried) {
+            *slot = (rest % size) as u16;
             rest /= size;
         }
         let n_actions = self.policy.layout().n_actions;
         let mut dense = vec![0.0; self.size * n_actions];
-        let mut m = vec![0; lambda];
-        self.expand(y, &prev, first, lambda, &mut m, 1.0, &mut dense);
+        for (memory, p) in self.policy.memory_law(y, &previous, first) {
+            let keep = memory[..memory.len() - 1]
+                .iter()
+                .zip(&self.carried)
+                .rev()
+                .fold(0, |keep, (&value, &size)| keep * size + value as usize);
+            for (d, &q) in self.policy.decision_law(memory[0] as usize).iter().enumerate() {
+                dense[keep * n_actions + d] += p * q;
+            }
+        }
         dense
             .iter()
             .enumerate()
             .filter(|&(_, &p)| p > 0.0)
             .map(|(i, &p)| ((i / n_actions) as u32, (i % n_actions) as u32, p))
             .collect()
-    }
-
-    /// Draws level `l` (then the ones below) given the levels above in `m`, with weight `p`.
-    #[allow(clippy::too_many_arguments)]
-    fn expand(&self, y: usize, prev: &[usize], first: bool, l: usize, m: &mut [usize], p: f64, dense: &mut [f64]) {
-        let (policy, layout) = (self.policy, self.policy.layout());
-        let lambda = m.len();
-        let upper = layout.upper_size(l);
-        let u = if l < lambda { m[l] } else { 0 };
-        let (table, row) = match l {
-            1 => (1, y * upper + u),
-            _ if first => (Layout::start_table(l), u),
-            _ => (Layout::step_table(l), prev[l - 2] * upper + u),
-        };
-        let cols = layout.tables[table].cols;
-        let probs = &policy.table(table)[row * cols..(row + 1) * cols];
-        for (v, &q) in probs.iter().enumerate() {
-            if q <= 0.0 {
-                continue;
-            }
-            m[l - 1] = v;
-            if l > 1 {
-                self.expand(y, prev, first, l - 1, m, p * q, dense);
-                continue;
-            }
-            let mut keep = 0;
-            for (&value, &size) in m[..lambda - 1].iter().zip(&self.carried).rev() {
-                keep = keep * size + value;
-            }
-            let n_actions = layout.n_actions;
-            let h0 = &policy.table(0)[v * n_actions..(v + 1) * n_actions];
-            for (d, &r) in h0.iter().enumerate() {
-                dense[keep * n_actions + d] += p * q * r;
-            }
-        }
     }
 }
 

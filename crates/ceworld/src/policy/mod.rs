@@ -14,6 +14,7 @@ use crate::rng::EngineRng;
 
 pub(crate) mod alias;
 pub mod file;
+pub mod graph;
 
 use alias::{AliasEntry, AliasScratch, build_alias, pick};
 
@@ -324,6 +325,54 @@ impl Hhmm {
         let m1 = self.draw(1, y * self.layout.upper_size(1) + u, rng);
         memory[0] = m1 as u16;
         self.draw(0, m1, rng)
+    }
+
+    /// The law of the memory `m[t]` that [`Hhmm::step`] draws from `y` and `m[t-1]` (`previous`,
+    /// bottom first; unused when `first`): every memory of positive probability, with it.
+    pub fn memory_law(&self, y: usize, previous: &[u16], first: bool) -> Vec<(Vec<u16>, f64)> {
+        let mut out = Vec::new();
+        let mut memory = vec![0; self.levels().len()];
+        self.expand_memory(y, previous, first, memory.len(), &mut memory, 1.0, &mut out);
+        out
+    }
+
+    /// Draws level `l`, then the ones below, given the levels above in `memory`.
+    #[allow(clippy::too_many_arguments)]
+    fn expand_memory(
+        &self,
+        y: usize,
+        previous: &[u16],
+        first: bool,
+        l: usize,
+        memory: &mut [u16],
+        p: f64,
+        out: &mut Vec<(Vec<u16>, f64)>,
+    ) {
+        let lambda = memory.len();
+        let upper = self.layout.upper_size(l);
+        let u = if l < lambda { memory[l] as usize } else { 0 };
+        let (table, row) = match l {
+            1 => (1, y * upper + u),
+            _ if first => (Layout::start_table(l), u),
+            _ => (Layout::step_table(l), previous[l - 2] as usize * upper + u),
+        };
+        let cols = self.layout.tables[table].cols;
+        for (v, &q) in self.table(table)[row * cols..(row + 1) * cols].iter().enumerate() {
+            if q > 0.0 {
+                memory[l - 1] = v as u16;
+                if l > 1 {
+                    self.expand_memory(y, previous, first, l - 1, memory, p * q, out);
+                } else {
+                    out.push((memory.to_vec(), p * q));
+                }
+            }
+        }
+    }
+
+    /// The decision law `h0[m_1]`.
+    pub fn decision_law(&self, m1: usize) -> &[f64] {
+        let d = self.layout.n_actions;
+        &self.table(0)[m1 * d..(m1 + 1) * d]
     }
 }
 

@@ -181,6 +181,14 @@ impl PomdpWorld {
     pub fn tables(&self) -> &Tables {
         &self.tables
     }
+
+    /// `policy` as a policy graph over the file's observations (its first memory drawn after
+    /// the start symbol), equivalent nodes merged when it is deterministic.
+    pub fn graph(&self, policy: &crate::policy::Hhmm) -> Result<crate::policy::graph::Graph> {
+        crate::evaluate::check_fits(self, policy)?;
+        let n_o = self.tables.n_observations();
+        Ok(crate::policy::graph::Graph::of(policy, n_o, n_o)?.minimized())
+    }
 }
 
 impl Tables {

@@ -53,6 +53,19 @@ enum Command {
         #[arg(long, default_value_t = ceworld::exact::DEFAULT_TOLERANCE, requires = "exact")]
         tolerance: f64,
     },
+    /// Show a policy of a tabular world as a finite-state controller (a policy graph) in the
+    /// .pomdp file's names, and optionally save it as JSON or as a pomdp-solve policy graph.
+    Show {
+        /// The policy file (JSON, model §6).
+        file: PathBuf,
+        /// Also write the graph as JSON (the file's names) to this file.
+        #[arg(long, value_name = "FILE.json")]
+        json: Option<PathBuf>,
+        /// Also write it as a pomdp-solve policy graph (`N A Z1 Z2 ...`, node 0 initial; only
+        /// for a deterministic policy).
+        #[arg(long, value_name = "FILE.pg")]
+        pg: Option<PathBuf>,
+    },
     /// Print the exact optimum of a world (known for case 1, fixed target).
     Optimum {
         #[command(flatten)]
@@ -343,6 +356,26 @@ fn run() -> Result<()> {
                 q.join(" "),
                 started.elapsed().as_secs_f64()
             );
+            Ok(())
+        }
+        Command::Show { file, json, pg } => {
+            let f = PolicyFile::load(&file)?;
+            let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
+                return Err(Error::invalid("show", "the policy's world is not tabular (expected a pomdp world)"));
+            };
+            let graph = world.graph(&f.policy)?;
+            let model = &world.tables().pomdp;
+            print!("{}", graph.describe(&model.actions, &model.observations));
+            let write = |path: &PathBuf, text: String| {
+                std::fs::write(path, text).map_err(|source| Error::Io { path: path.clone(), source })
+            };
+            if let Some(path) = &pg {
+                write(path, graph.to_pg()?)?;
+            }
+            if let Some(path) = &json {
+                let doc = graph.to_json(&model.actions, &model.observations);
+                write(path, serde_json::to_string_pretty(&doc).expect("a graph serialises"))?;
+            }
             Ok(())
         }
         Command::Optimum { world } => {

@@ -1,0 +1,207 @@
+//! A policy as a finite-state controller (a policy graph): its nodes are the memories `m[t]`
+//! (all levels) reachable from the start; a node takes its decision from `h0[m_1]`, and the
+//! observation that follows moves it to the next node. Printed in a world's own names, saved
+//! as JSON, or, when every law is deterministic, as a pomdp-solve policy graph (`.pg`).
+
+use std::collections::HashMap;
+use std::fmt::Write;
+
+use serde::Serialize;
+use serde_json::{Value, json};
+
+use crate::error::{Error, Result};
+use crate::policy::Hhmm;
+
+/// Laws below this are left out of a graph (they are rounding noise of refitted tables).
+pub const NEGLIGIBLE: f64 = 1e-12;
+/// The most nodes a graph may have.
+pub const MAX_NODES: usize = 100_000;
+
+/// One node of a [`Graph`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Node {
+    /// The memory `m_1 .. m_Λ` of the node.
+    pub memory: Vec<u16>,
+    /// `(decision, probability)`, positive probabilities only.
+    pub decision: Vec<(usize, f64)>,
+    /// For each observation: `(next node, probability)`.
+    pub next: Vec<Vec<(usize, f64)>>,
+}
+
+/// A policy as a policy graph.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Graph {
+    /// `(node, probability)` at `t = 1` (after the start symbol).
+    pub initial: Vec<(usize, f64)>,
+    /// The nodes reachable from the initial ones, in the order they were found.
+    pub nodes: Vec<Node>,
+}
+
+impl Graph {
+    /// The graph of `policy` for a world whose observations are `0..n_obs` after a first
+    /// observation `start` (the start symbol of a tabular world).
+    pub fn of(policy: &Hhmm, n_obs: usize, start: usize) -> Result<Graph> {
+        let mut index: HashMap<Vec<u16>, usize> = HashMap::new();
+        let mut memories: Vec<Vec<u16>> = Vec::new();
+        let mut find = |memory: Vec<u16>, memories: &mut Vec<Vec<u16>>| -> Result<usize> {
+            if let Some(&k) = index.get(&memory) {
+                return Ok(k);
+            }
+            if memories.len() >= MAX_NODES {
+                return Err(Error::invalid("policy", format!("more than {MAX_NODES} reachable memories")));
+            }
+            index.insert(memory.clone(), memories.len());
+            memories.push(memory);
+            Ok(memories.len() - 1)
+        };
+        let mut initial = Vec::new();
+        for (memory, p) in policy.memory_law(start, &[], true) {
+            if p > NEGLIGIBLE {
+                initial.push((find(memory, &mut memories)?, p));
+            }
+        }
+        let mut nodes = Vec::new();
+        while nodes.len() < memories.len() {
+            let memory = memories[nodes.len()].clone();
+            let decision = positive(policy.decision_law(memory[0] as usize).iter().copied().enumerate());
+            let mut next = Vec::with_capacity(n_obs);
+            for y in 0..n_obs {
+                let mut law = Vec::new();
+                for (m, p) in policy.memory_law(y, &memory, false) {
+                    if p > NEGLIGIBLE {
+                        law.push((find(m, &mut memories)?, p));
+                    }
+                }
+                next.push(law);
+            }
+            nodes.push(Node { memory, decision, next });
+        }
+        Ok(Graph { initial, nodes })
+    }
+
+    /// Whether every law is a single outcome (a deterministic controller).
+    pub fn is_deterministic(&self) -> bool {
+        self.initial.len() == 1
+            && self.nodes.iter().all(|n| n.decision.len() == 1 && n.next.iter().all(|law| law.len() == 1))
+    }
+
+    /// A deterministic graph with equivalent nodes merged (same decision, and next nodes
+    /// equivalent on every observation: Moore's partition refinement); the first node of each
+    /// class stands for it. A graph that is not deterministic comes back unchanged.
+    pub fn minimized(&self) -> Graph {
+        if !self.is_deterministic() {
+            return self.clone();
+        }
+        let n = self.nodes.len();
+        let mut class: Vec<usize> = self.nodes.iter().map(|node| node.decision[0].0).collect();
+        loop {
+            let mut ids: HashMap<(usize, Vec<usize>), usize> = HashMap::new();
+            let refined: Vec<usize> = (0..n)
+                .map(|k| {
+                    let signature = (class[k], self.nodes[k].next.iter().map(|law| class[law[0].0]).collect());
+                    let next = ids.len();
+                    *ids.entry(signature).or_insert(next)
+                })
+                .collect();
+            let count = |c: &[usize]| c.iter().collect::<std::collections::HashSet<_>>().len();
+            let done = count(&refined) == count(&class);
+            class = refined;
+            if done {
+                break;
+            }
+        }
+        // Keep the first node of each class, in order; map every node to its representative.
+        let mut representative: HashMap<usize, usize> = HashMap::new();
+        let mut kept = Vec::new();
+        for k in 0..n {
+            representative.entry(class[k]).or_insert_with(|| {
+                kept.push(k);
+                kept.len() - 1
+            });
+        }
+        let new_id = |k: usize| representative[&class[k]];
+        let nodes = kept
+            .iter()
+            .map(|&k| {
+                let node = &self.nodes[k];
+                let next = node.next.iter().map(|law| vec![(new_id(law[0].0), 1.0)]).collect();
+                Node { memory: node.memory.clone(), decision: node.decision.clone(), next }
+            })
+            .collect();
+        Graph { initial: vec![(new_id(self.initial[0].0), 1.0)], nodes }
+    }
+
+    /// The pomdp-solve policy graph: one line `N A Z1 Z2 ...` per node (node 0 the initial
+    /// one), or an error when some law is not deterministic.
+    pub fn to_pg(&self) -> Result<String> {
+        if !self.is_deterministic() {
+            return Err(Error::invalid(
+                "policy",
+                "not deterministic (some decision or memory law has several outcomes): save it as JSON instead",
+            ));
+        }
+        // Node 0 is the initial node: renumber so.
+        let first = self.initial[0].0;
+        let id = |k: usize| match k {
+            k if k == first => 0,
+            k if k < first => k + 1,
+            k => k,
+        };
+        let mut order: Vec<usize> = (0..self.nodes.len()).collect();
+        order.sort_by_key(|&k| id(k));
+        let mut text = String::new();
+        for k in order {
+            let node = &self.nodes[k];
+            let _ = write!(text, "{} {}", id(k), node.decision[0].0);
+            for law in &node.next {
+                let _ = write!(text, " {}", id(law[0].0));
+            }
+            text.push('\n');
+        }
+        Ok(text)
+    }
+
+    /// The graph as text in the world's names: each node's decision law and, per observation,
+    /// its next nodes.
+    pub fn describe(&self, decisions: &[String], observations: &[String]) -> String {
+        let mut text = String::from("initial:");
+        for &(k, p) in &self.initial {
+            let _ = write!(text, " node {k} ({p:.3})");
+        }
+        text.push('\n');
+        for (k, node) in self.nodes.iter().enumerate() {
+            let laws: Vec<String> =
+                node.decision.iter().map(|&(d, p)| format!("{} {p:.3}", name(decisions, d))).collect();
+            let _ = writeln!(text, "node {k} (memory {:?}): {}", node.memory, laws.join(", "));
+            for (y, law) in node.next.iter().enumerate() {
+                let next: Vec<String> = law.iter().map(|&(n, p)| format!("node {n} ({p:.3})")).collect();
+                let _ = writeln!(text, "  on {} -> {}", name(observations, y), next.join(", "));
+            }
+        }
+        text
+    }
+
+    /// The graph as JSON in the world's names.
+    pub fn to_json(&self, decisions: &[String], observations: &[String]) -> Value {
+        let nodes: Vec<Value> = self
+            .nodes
+            .iter()
+            .map(|node| {
+                let decision: serde_json::Map<String, Value> =
+                    node.decision.iter().map(|&(d, p)| (name(decisions, d), json!(p))).collect();
+                let next: serde_json::Map<String, Value> =
+                    node.next.iter().enumerate().map(|(y, law)| (name(observations, y), json!(law))).collect();
+                json!({"memory": node.memory, "decision": decision, "next": next})
+            })
+            .collect();
+        json!({"format": "cehmm-policy-graph", "initial": self.initial, "nodes": nodes})
+    }
+}
+
+fn positive(law: impl Iterator<Item = (usize, f64)>) -> Vec<(usize, f64)> {
+    law.filter(|&(_, p)| p > NEGLIGIBLE).collect()
+}
+
+fn name(names: &[String], k: usize) -> String {
+    names.get(k).cloned().unwrap_or_else(|| k.to_string())
+}
