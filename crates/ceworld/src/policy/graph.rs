@@ -113,8 +113,8 @@ impl Graph {
         // Keep the first node of each class, in order; map every node to its representative.
         let mut representative: HashMap<usize, usize> = HashMap::new();
         let mut kept = Vec::new();
-        for k in 0..n {
-            representative.entry(class[k]).or_insert_with(|| {
+        for (k, &c) in class.iter().enumerate() {
+            representative.entry(c).or_insert_with(|| {
                 kept.push(k);
                 kept.len() - 1
             });
