@@ -8,7 +8,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use ceworld::ce::counting::count_episode;
 use ceworld::ce::episode::run_recorded;
 use ceworld::rng::{Purpose, stream};
-use ceworld::{CeConfig, Flow, TargetTracking, World, optimize, random_policy};
+use ceworld::{CeConfig, Flow, PomdpWorld, TargetTracking, World, optimize, random_policy};
 
 const MODELS: [&[usize]; 3] = [&[16], &[16, 16], &[256, 256]];
 
@@ -83,5 +83,51 @@ fn ce_iteration(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, steps, episode, ce_iteration);
+/// A world step (observe + step) of tabular worlds beside target tracking's, over 1000 steps,
+/// with sampled and belief rewards: the cost per step of the `.pomdp` world (model §7).
+fn tabular_steps(c: &mut Criterion) {
+    let mut group = c.benchmark_group("world_step_x1000");
+    group.throughput(Throughput::Elements(1000));
+    let tracking = TargetTracking::new(3).unwrap();
+    bench_world(&mut group, "target-tracking case 3", &tracking);
+    for (file, reward) in [
+        ("tiger.95.POMDP", "sampled"),
+        ("hallway.POMDP", "sampled"),
+        ("tag.pomdp", "sampled"),
+        ("hallway.POMDP", "belief"),
+        ("tag.pomdp", "belief"),
+    ] {
+        let path = format!("{}/../../data/pomdp/{file}", env!("CARGO_MANIFEST_DIR"));
+        let params = ceworld::PomdpParams {
+            file: path,
+            reward: serde_json::from_value(reward.into()).unwrap(),
+            ..ceworld::PomdpParams::default()
+        };
+        let world = PomdpWorld::with_params(params).unwrap();
+        bench_world(&mut group, &format!("{file} {reward}"), &world);
+    }
+    group.finish();
+}
+
+fn bench_world<W: World>(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    world: &W,
+) {
+    let mut rng = stream(0, Purpose::Optimise, 0, 0);
+    let d = world.n_decisions();
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            let mut state = world.reset(&mut rng);
+            let mut acc = 0;
+            for k in 0..1000 {
+                acc += world.observe(&state, &mut rng);
+                world.step(&mut state, k % d, &mut rng);
+            }
+            black_box((acc, world.reward(&state)))
+        });
+    });
+}
+
+criterion_group!(benches, steps, episode, ce_iteration, tabular_steps);
 criterion_main!(benches);

@@ -110,6 +110,7 @@ pub struct PomdpState {
     weight: f64,
     total: f64,
     belief: Vec<f64>,
+    scratch: Vec<f64>,
 }
 
 /// The hex SHA-256 of `bytes`.
@@ -321,7 +322,8 @@ impl World for PomdpWorld {
             RewardKind::Sampled => Vec::new(),
             RewardKind::Belief => t.start.clone(),
         };
-        PomdpState { s: s as u32, y: t.n_observations() as u32, weight: 1.0, total: 0.0, belief }
+        let scratch = vec![0.0; belief.len()];
+        PomdpState { s: s as u32, y: t.n_observations() as u32, weight: 1.0, total: 0.0, belief, scratch }
     }
 
     #[inline]
@@ -340,9 +342,8 @@ impl World for PomdpWorld {
             RewardKind::Belief => {
                 let n_a = t.n_actions();
                 let r = state.belief.iter().enumerate().map(|(s, &b)| b * t.expected[s * n_a + decision]).sum();
-                let mut next = vec![0.0; state.belief.len()];
-                t.filter(&state.belief, decision, state.y as usize, &mut next);
-                state.belief = next;
+                t.filter(&state.belief, decision, state.y as usize, &mut state.scratch);
+                std::mem::swap(&mut state.belief, &mut state.scratch);
                 r
             }
         };
