@@ -31,6 +31,7 @@ def test_hierarchy() -> None:
         ({"levels": [70000]}, r"levels: \[70000\]"),
         ({"smoothing": 0}, r"smoothing: 0\b"),
         ({"smoothing": 1.01}, r"smoothing: 1\.01"),
+        ({"decision_smoothing": 0}, r"decision_smoothing: 0\b"),
         ({"threads": 0}, r"threads: 0\b"),
         ({"threads": -1}, r"threads: -1\b"),
         ({"patience": 0}, r"patience: 0\b"),

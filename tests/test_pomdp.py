@@ -78,6 +78,8 @@ def test_optimising_tiger_beats_the_uniform_policy(tiger: cehmm.PomdpWorld) -> N
     exact = result.policy.evaluate_exact().value
     assert uniform < -300 and exact > -25, (uniform, exact)
     assert result.policy.world["name"] == "pomdp" and result.policy.world["sha256"] == tiger.sha256
+    slow = cehmm.optimize(tiger, levels=[2, 2], samples=200, max_iterations=3, progress=False, decision_smoothing=0.05)
+    assert slow.policy.provenance["decision_smoothing"] == 0.05 and "decision_smoothing" not in result.policy.provenance
 
 
 def test_a_policy_remembers_its_model(tmp_path: Path, tiger: cehmm.PomdpWorld) -> None:

@@ -252,6 +252,7 @@ def optimize(
     samples: int,
     rho: float,
     smoothing: float,
+    decision_smoothing: float | None,
     patience: int,
     max_iterations: int | None,
     time_limit: float | None,

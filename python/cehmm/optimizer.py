@@ -90,6 +90,7 @@ def optimize(
     samples: int = CE_DEFAULTS["samples"],
     rho: float = CE_DEFAULTS["rho"],
     smoothing: float = CE_DEFAULTS["smoothing"],
+    decision_smoothing: float | None = None,
     patience: int = CE_DEFAULTS["patience"],
     max_iterations: int | None = None,
     time_limit: float | None = None,
@@ -116,6 +117,10 @@ def optimize(
         samples: episodes per iteration ``N``.
         rho: selective rate, ``0 < rho < 1``.
         smoothing: ``0 < smoothing <= 1``; 1 is the paper's basic CE.
+        decision_smoothing: the smoothing of the decision table ``h0`` alone (default:
+            ``smoothing``). Smaller lets the memory take shape before the decisions settle: on
+            problems whose optimum needs memory (shuttle, 4x3) the decisions otherwise lock onto
+            the best memoryless policy within a few iterations.
         patience: stop after this many unsuccessful iterations in a row (the paper's weak
             criterion is 100, its strong one 500).
         max_iterations: stop after this many iterations.
@@ -156,6 +161,7 @@ def optimize(
         samples=samples,
         rho=rho,
         smoothing=smoothing,
+        decision_smoothing=decision_smoothing,
         patience=patience,
         max_iterations=max_iterations,
         time_limit=time_limit,

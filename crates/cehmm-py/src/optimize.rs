@@ -93,7 +93,7 @@ impl PyOptimizeOutcome {
 /// and the result comes back marked interrupted.
 #[pyfunction]
 #[pyo3(signature = (
-    world, initial, *, samples, rho, smoothing, patience, max_iterations, time_limit, target, seed, threads,
+    world, initial, *, samples, rho, smoothing, decision_smoothing, patience, max_iterations, time_limit, target, seed, threads,
     eval_episodes, progress, memory_update, restarts
 ))]
 #[allow(clippy::too_many_arguments)]
@@ -104,6 +104,7 @@ pub fn optimize(
     samples: &Bound<'_, PyAny>,
     rho: &Bound<'_, PyAny>,
     smoothing: &Bound<'_, PyAny>,
+    decision_smoothing: Option<&Bound<'_, PyAny>>,
     patience: &Bound<'_, PyAny>,
     max_iterations: Option<&Bound<'_, PyAny>>,
     time_limit: Option<&Bound<'_, PyAny>>,
@@ -119,6 +120,7 @@ pub fn optimize(
         samples: count("samples", samples)?,
         rho: real("rho", rho)?,
         smoothing: real("smoothing", smoothing)?,
+        decision_smoothing: optional_real("decision_smoothing", decision_smoothing)?,
         patience: count("patience", patience)?,
         max_iterations: optional_count("max_iterations", max_iterations)?,
         time_limit: optional_real("time_limit", time_limit)?,

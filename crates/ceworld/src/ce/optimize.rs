@@ -24,6 +24,11 @@ pub struct CeConfig {
     pub rho: f64,
     /// Smoothing α in (0, 1]: `h := α·new + (1 − α)·h`; 1 is the paper's basic CE.
     pub smoothing: f64,
+    /// The smoothing of the decision table `h0` alone, in (0, 1] (`None`: `smoothing`). A
+    /// smaller value lets the memory tables take shape before the decisions settle: on tabular
+    /// worlds whose optimum needs memory, the decisions otherwise lock onto the best memoryless
+    /// policy within a few iterations (model §3).
+    pub decision_smoothing: Option<f64>,
     /// Stop after this many consecutive unsuccessful iterations (weak 100, strong 500).
     pub patience: usize,
     /// Stop after this many iterations.
@@ -91,6 +96,7 @@ impl Default for CeConfig {
             samples: 1000,
             rho: 0.5,
             smoothing: 1.0,
+            decision_smoothing: None,
             patience: 100,
             max_iterations: None,
             time_limit: None,
@@ -141,6 +147,11 @@ impl CeConfig {
         }
         if !(self.smoothing > 0.0 && self.smoothing <= 1.0) {
             return Err(Error::invalid("smoothing", format!("{} (expected 0 < smoothing <= 1)", self.smoothing)));
+        }
+        if let Some(d) = self.decision_smoothing
+            && !(d > 0.0 && d <= 1.0)
+        {
+            return Err(Error::invalid("decision_smoothing", format!("{d} (expected 0 < decision_smoothing <= 1)")));
         }
         if self.patience == 0 {
             return Err(Error::invalid("patience", "0 (expected at least 1 iteration)"));
@@ -368,8 +379,8 @@ fn optimize_once<W: World>(
             unsuccessful += 1;
         }
         pool.install(|| match &counts {
-            Counts::Integer(c) => policy.refit(c, config.smoothing),
-            Counts::Real(c) => policy.refit(c, config.smoothing),
+            Counts::Integer(c) => policy.refit(c, config.smoothing, config.decision_smoothing),
+            Counts::Real(c) => policy.refit(c, config.smoothing, config.decision_smoothing),
         });
         let record = IterationRecord {
             iteration,
@@ -521,6 +532,10 @@ mod tests {
         }
         assert!(ok(CeConfig { rho: 0.999, ..base.clone() }));
         assert!(!ok(CeConfig { smoothing: 0.0, ..base.clone() }));
+        assert!(!ok(CeConfig { decision_smoothing: Some(0.0), ..base.clone() }));
+        assert!(!ok(CeConfig { decision_smoothing: Some(1.5), ..base.clone() }));
+        assert!(!ok(CeConfig { decision_smoothing: Some(f64::NAN), ..base.clone() }));
+        assert!(ok(CeConfig { decision_smoothing: Some(1.0), ..base.clone() }));
         assert!(ok(CeConfig { smoothing: 1.0, ..base.clone() }));
         assert!(!ok(CeConfig { samples: 0, ..base.clone() }));
         assert!(!ok(CeConfig { patience: 0, ..base.clone() }));

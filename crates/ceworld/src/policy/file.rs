@@ -211,6 +211,9 @@ impl PolicyFile {
                 "interrupted": result.interrupted(),
                 "version": crate::VERSION,
         });
+        if let Some(d) = config.decision_smoothing {
+            provenance["decision_smoothing"] = json!(d);
+        }
         if !result.restart_scores.is_empty() {
             provenance["restart_scores"] = json!(result.restart_scores);
         }

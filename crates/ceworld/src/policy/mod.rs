@@ -250,13 +250,14 @@ impl Hhmm {
         }
     }
 
-    /// The CE update (model §3): each row with counts becomes `α·counts/total + (1 − α)·old`;
-    /// rows without counts keep their values. `counts` is laid out as the tables. Rows are
+    /// The CE update (model §3): each row with counts becomes `α·counts/total + (1 − α)·old`,
+    /// with `α = decision` for `h0` when given; rows without counts keep their values. `counts` is laid out as the tables. Rows are
     /// refitted in parallel (on the current rayon pool); each row's result is independent of
     /// the split, so the update is bit-identical whatever the number of threads.
-    pub fn refit<C: Copy + Into<f64> + Sync>(&mut self, counts: &[C], smoothing: f64) {
+    pub fn refit<C: Copy + Into<f64> + Sync>(&mut self, counts: &[C], smoothing: f64, decision: Option<f64>) {
         assert_eq!(counts.len(), self.probs.len(), "counts laid out as the tables");
-        for t in &self.layout.tables {
+        for (index, t) in self.layout.tables.iter().enumerate() {
+            let smoothing = if index == 0 { decision.unwrap_or(smoothing) } else { smoothing };
             let range = t.offset..t.offset + t.rows * t.cols;
             let rows = self.probs[range.clone()]
                 .par_chunks_mut(t.cols)
@@ -393,6 +394,23 @@ fn row_name(t: &TableShape, row: usize) -> String {
 mod tests {
     use super::*;
     use crate::rng::{Purpose, stream};
+
+    #[test]
+    fn the_decision_table_takes_its_own_smoothing() {
+        let mut h = Hhmm::uniform(2, 2, &[2]).unwrap();
+        // Every count on decision 0 and memory 0: h0 rows move by 0.1, h1 rows by 0.5.
+        let mut counts = vec![0.0; h.probs().len()];
+        for (index, table) in h.layout().tables.clone().iter().enumerate() {
+            for row in 0..table.rows {
+                counts[table.offset + row * table.cols] = if index == 0 { 4.0 } else { 2.0 };
+            }
+        }
+        h.refit(&counts, 0.5, Some(0.1));
+        assert_eq!(h.table(0), &[0.55, 0.45, 0.55, 0.45]);
+        assert_eq!(h.table(1), &[0.75, 0.25, 0.75, 0.25]);
+        h.refit(&counts, 0.5, None);
+        assert_eq!(h.table(0), &[0.775, 0.225, 0.775, 0.225]);
+    }
 
     #[test]
     fn parameter_count_matches_the_paper() {

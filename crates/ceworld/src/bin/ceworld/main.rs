@@ -130,6 +130,10 @@ struct OptimizeArgs {
     /// Smoothing alpha in (0, 1]: h := alpha*new + (1-alpha)*h (1 = the paper's basic CE).
     #[arg(long, default_value_t = CeConfig::default().smoothing)]
     smoothing: f64,
+    /// The smoothing of the decision table h0 alone (default: --smoothing); smaller lets the
+    /// memory take shape before the decisions settle (e.g. 0.02 with --smoothing 0.2).
+    #[arg(long)]
+    decision_smoothing: Option<f64>,
     /// Stop after this many unsuccessful iterations in a row (the paper's weak criterion is
     /// 100, its strong criterion 500).
     #[arg(long, default_value_t = CeConfig::default().patience)]
@@ -228,6 +232,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         samples: args.samples,
         rho: args.rho,
         smoothing: args.smoothing,
+        decision_smoothing: args.decision_smoothing,
         patience: args.patience,
         max_iterations: args.max_iterations,
         time_limit: args.time_limit,
