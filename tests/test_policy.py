@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
 import pickle
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -214,3 +216,33 @@ def test_policy_for_case_2_does_not_fit_case_3(case2: cehmm.TargetTracking, case
 def test_repr_is_readable(trained: cehmm.OptimizeResult) -> None:
     text = repr(trained.policy)
     assert text.startswith("Policy(levels=[4, 3]") and "case 1" in text and "mean_reward=" in text
+
+
+def test_odd_policy_files_are_format_errors_never_panics(tmp_path, case1) -> None:
+    good = json.loads(cehmm.Policy.uniform(case1, [2]).to_json())
+    for key, value in [("format", "é" * 50), ("version", "ü" * 60), ("format", ["x"] * 30)]:
+        path = tmp_path / f"{key}.json"
+        path.write_text(json.dumps({**good, key: value}), encoding="utf-8")
+        with pytest.raises(cehmm.PolicyFormatError, match=key):
+            cehmm.Policy.load(path)
+    path = tmp_path / "latin1.json"
+    path.write_bytes(json.dumps(good).encode().replace(b'"levels"', b'"l\xe9vels"'))
+    with pytest.raises(cehmm.PolicyFormatError, match="not UTF-8"):
+        cehmm.Policy.load(path)
+
+
+def test_saving_never_replaces_what_is_not_a_regular_file(tmp_path, case1) -> None:
+    policy = cehmm.Policy.uniform(case1, [2])
+    with pytest.raises(cehmm.InvalidArgumentError, match="is a directory"):
+        policy.save(tmp_path)
+    if os.path.exists("/dev/null"):
+        with pytest.raises(cehmm.InvalidArgumentError, match="not a regular file"):
+            policy.save("/dev/null")
+        assert stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    real = tmp_path / "real.json"
+    policy.save(real)
+    link = tmp_path / "link.json"
+    link.symlink_to("real.json")
+    cehmm.Policy.uniform(case1, [3]).save(link)
+    assert link.is_symlink() and cehmm.Policy.load(real).levels == [3]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.json", "real.json"]

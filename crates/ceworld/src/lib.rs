@@ -19,6 +19,7 @@ pub mod control;
 pub mod error;
 pub mod evaluate;
 pub mod exact;
+pub mod files;
 pub mod policy;
 pub mod progress;
 pub mod qlearn;

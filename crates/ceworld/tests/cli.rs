@@ -117,7 +117,7 @@ fn ctrl_c_saves_the_best_policy_so_far() {
         "--out",
         path.to_str().unwrap(),
     ]);
-    assert!(status.success(), "{stderr}");
+    assert_eq!(status.code(), Some(130), "Ctrl-C exits with 130 after saving: {stderr}");
     assert!(stdout.starts_with("interrupted:"), "{stdout}");
     let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(doc["provenance"]["interrupted"], true);

@@ -123,7 +123,7 @@ fn ctrl_c_saves_a_checkpoint_to_resume_from() {
     args.extend(SMALL);
     args.extend(["--out", path.to_str().unwrap()]);
     let (status, stdout, stderr) = interrupt_when_ready(&args);
-    assert!(status.success(), "{stderr}");
+    assert_eq!(status.code(), Some(130), "Ctrl-C exits with 130 after saving: {stderr}");
     assert!(stdout.starts_with("interrupted:") && stdout.contains("--resume"), "{stdout}");
     let updates = header(&path)["updates"].as_u64().unwrap();
     assert!(updates > 0 && updates % ceworld::qlearn::CHUNK == 0, "{updates}");
@@ -151,4 +151,20 @@ fn bad_arguments_are_clear_errors() {
     assert_eq!(out.status.code(), Some(2));
     let out = ceworld(&["qlearn", "--resume", "--checkpoint", missing.to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("does not exist"));
+}
+
+#[test]
+fn the_example_in_the_help_runs_as_written() {
+    let help = ceworld(&["qlearn", "--help"]);
+    let text = String::from_utf8_lossy(&help.stdout).replace('\n', " ");
+    let example = text.split("Example (a small table, a few seconds): ").nth(1).expect("an example in the help");
+    let command: Vec<&str> = example.split_whitespace().take_while(|w| !w.starts_with("Usage")).collect();
+    assert_eq!(command[..2], ["ceworld", "qlearn"]);
+    let out = temp("help-example.bin");
+    let mut args: Vec<&str> =
+        command[1..].iter().map(|a| if *a == "qtable.bin" { out.to_str().unwrap() } else { a }).collect();
+    args.push("--quiet");
+    let run = ceworld(&args);
+    assert!(run.status.success(), "{args:?}: {}", String::from_utf8_lossy(&run.stderr));
+    assert!(out.exists());
 }

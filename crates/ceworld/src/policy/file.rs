@@ -1,5 +1,6 @@
 //! Policy files: the JSON of model §6 (`"format": "cehmm-policy", "version": 1`).
 
+use std::io::Write;
 use std::path::Path;
 
 use serde_json::{Map, Value, json};
@@ -11,6 +12,8 @@ use crate::policy::{Hhmm, Layout, TableShape};
 pub const FORMAT: &str = "cehmm-policy";
 /// The `version` value this engine reads and writes.
 pub const VERSION: u64 = 1;
+/// The largest policy file read (bytes), refused before reading.
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
 
 /// A policy with the world it was made for and how it was made.
 #[derive(Clone, Debug, PartialEq)]
@@ -156,14 +159,11 @@ impl PolicyFile {
         })
     }
 
-    /// Writes the file (pretty JSON), through a temporary file so a crash never leaves half a file.
+    /// Writes the file (JSON) safely: a unique temporary file, synced, renamed over the target
+    /// (`crate::files`); a target that is a directory or a device is refused.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        let io = |source| Error::Io { path: path.to_path_buf(), source };
         let text = serde_json::to_string(&self.to_json()).expect("JSON values serialise");
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, text).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        crate::files::write_atomic(path.as_ref(), |w| w.write_all(text.as_bytes()))
     }
 
     /// Reads and checks a file.
@@ -173,8 +173,10 @@ impl PolicyFile {
             Error::PolicyFormat { message, .. } => Error::PolicyFormat { path: Some(path.to_path_buf()), message },
             other => other,
         };
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-        let doc: Value = serde_json::from_str(&text).map_err(|e| with_path(Error::format(format!("not JSON: {e}"))))?;
+        let bytes = crate::files::read_limited(path, MAX_FILE_BYTES, "policy file")?;
+        let text = std::str::from_utf8(&bytes)
+            .map_err(|e| with_path(Error::format(format!("not UTF-8 text ({e}): expected a JSON policy file"))))?;
+        let doc: Value = serde_json::from_str(text).map_err(|e| with_path(Error::format(format!("not JSON: {e}"))))?;
         Self::from_json(&doc).map_err(with_path)
     }
 }
@@ -184,7 +186,7 @@ fn show(v: Option<&Value>) -> String {
         None => "missing".into(),
         Some(v) => {
             let s = v.to_string();
-            if s.len() > 40 { format!("{}…", &s[..40]) } else { s }
+            if s.chars().count() > 40 { format!("{}…", s.chars().take(40).collect::<String>()) } else { s }
         }
     }
 }

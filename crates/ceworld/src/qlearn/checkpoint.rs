@@ -19,9 +19,7 @@ use crate::rng::EngineRng;
 use serde_json::Value;
 use std::fs::File;
 use std::io::BufReader;
-use std::io::BufWriter;
 use std::path::Path;
-use std::path::PathBuf;
 
 impl<W: KnownState> QLearner<W> {
     /// The header of the run's file: every setting, the counters, the random stream's state and
@@ -58,15 +56,8 @@ impl<W: KnownState> QLearner<W> {
     /// length (u64, little-endian), the header (JSON), zero padding to a multiple of 64 bytes,
     /// then the `n_states × n_actions` values (f32, little-endian, row-major).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        let io = |source| Error::Io { path: path.to_path_buf(), source };
-        let mut tmp_name = path.as_os_str().to_owned();
-        tmp_name.push(".tmp");
-        let tmp = PathBuf::from(tmp_name);
         let header = serde_json::to_vec(&self.header()).expect("JSON values serialise");
-        let file = File::create(&tmp).map_err(|source| Error::Io { path: tmp.clone(), source })?;
-        let mut out = BufWriter::with_capacity(8 << 20, file);
-        let written = (|| -> std::io::Result<()> {
+        crate::files::write_atomic(path.as_ref(), |out| {
             out.write_all(MAGIC)?;
             out.write_all(&(header.len() as u64).to_le_bytes())?;
             out.write_all(&header)?;
@@ -77,10 +68,8 @@ impl<W: KnownState> QLearner<W> {
                 bytes.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
                 out.write_all(&bytes)?;
             }
-            out.into_inner().map_err(std::io::IntoInnerError::into_error)?.sync_all()
-        })();
-        written.map_err(|source| Error::Io { path: tmp.clone(), source })?;
-        std::fs::rename(&tmp, path).map_err(io)
+            Ok(())
+        })
     }
 
     /// Reads a run saved by [`QLearner::save`] for `world` (which must be the file's world).

@@ -78,6 +78,11 @@ enum Command {
     /// The run is checkpointed (table, update count, random stream, world state) every
     /// --checkpoint-every seconds, on Ctrl-C and at the end; --resume continues it exactly as
     /// if it had never stopped. Then the greedy policy is evaluated on 100-step windows.
+    ///
+    /// Example (a small table, a few seconds): ceworld qlearn --param width=5 --param height=5
+    /// --param start_b=[0,4] --param start_c=[4,4] --param target_cell=[2,2] --param
+    /// target_rows=[0,2] --iterations 1e5 --window 20 --episodes 100 --chains 2 --burn-in 100
+    /// --windows-per-chain 50 --out qtable.bin
     Qlearn(QlearnArgs),
     /// Evaluate on 100-step windows, as the paper compares them, the greedy policy of a Q table
     /// and/or HHMM policies: (a) windows from the initial state, (b) consecutive windows of long
@@ -118,8 +123,9 @@ pub(crate) struct WorldArgs {
 struct OptimizeArgs {
     #[command(flatten)]
     world: WorldArgs,
-    /// Memory sizes per level, bottom first: 16 is a memoryless policy, 16,16 an IO-HMM.
-    #[arg(long, default_values_t = ceworld::DEFAULT_LEVELS, value_delimiter = ',')]
+    /// Memory sizes per level, bottom first: 16 is a memoryless policy, 16,16 an IO-HMM (give
+    /// it once; a policy given by --init brings its own).
+    #[arg(long, default_values_t = ceworld::DEFAULT_LEVELS, value_delimiter = ',', action = clap::ArgAction::Set)]
     levels: Vec<usize>,
     /// Episodes per iteration (N).
     #[arg(long, default_value_t = CeConfig::default().samples)]
@@ -173,7 +179,7 @@ struct OptimizeArgs {
     #[arg(long)]
     random_init: bool,
     /// Start from a saved policy instead.
-    #[arg(long, value_name = "FILE.json", conflicts_with = "random_init")]
+    #[arg(long, value_name = "FILE.json", conflicts_with_all = ["random_init", "levels"])]
     init: Option<PathBuf>,
     /// Where to save the best policy.
     #[arg(long, default_value = "policy.json", value_name = "FILE.json")]
@@ -314,6 +320,9 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         e.max,
         args.out.display()
     );
+    if result.interrupted() {
+        INTERRUPTED.store(true, Ordering::SeqCst);
+    }
     Ok(())
 }
 
@@ -393,8 +402,13 @@ fn run() -> Result<()> {
     }
 }
 
+/// Set when Ctrl-C stopped a run: the process then exits with 130 (after saving what it has),
+/// so that `ceworld optimize ... && next` does not go on.
+pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
 fn main() -> ExitCode {
     match run() {
+        Ok(()) if INTERRUPTED.load(Ordering::SeqCst) => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("ceworld: error: {e}");

@@ -60,8 +60,7 @@ impl WindowArgs {
 #[derive(clap::Args)]
 #[allow(clippy::struct_excessive_bools)] // command-line flags
 pub(crate) struct QlearnArgs {
-    /// The world (e.g. --param width=5 --param height=5 --param `start_b`=[0,4] --param
-    /// `start_c`=[4,4] for a small table).
+    /// The world (see the example in the command's help).
     #[command(flatten)]
     world: WorldArgs,
     /// Total number of updates (steps) of the run, e.g. 1e9; with --resume the run goes on
@@ -190,6 +189,7 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
     let mut learner = open_learner(args, world_from(&args.world)?, config, &checkpoint)?;
     let interrupted = with_learner!(&mut learner, q => train(args, q, &checkpoint))?;
     if interrupted {
+        super::INTERRUPTED.store(true, Ordering::SeqCst);
         println!("continue with: ceworld qlearn --resume --checkpoint {} ...", checkpoint.display());
     } else if !args.no_eval {
         let pool = thread_pool(args.windows.threads)?;

@@ -1,0 +1,178 @@
+//! Files written and read safely. A file is written to a fresh temporary file in the target's
+//! folder (created exclusively, so concurrent writers never share one), flushed and synced, then
+//! renamed over the target: a reader sees the old file or the new one, whole, never a mix, and
+//! an interruption leaves the target untouched. A target that exists and is not a regular file
+//! is refused (a directory, a device such as `/dev/null`, a socket, a pipe); a symbolic link is
+//! written through: the file it points to is replaced, the link stays. Reads refuse a file over
+//! a stated size before reading it.
+
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::error::{Error, Result};
+
+/// The file that `path` names for writing: itself, or where its symbolic links lead; an error
+/// when it exists and is not a regular file.
+fn target(path: &Path) -> Result<PathBuf> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let mut resolved = path.to_path_buf();
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&resolved) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(resolved),
+            Err(e) => return Err(io(e)),
+            Ok(meta) if meta.file_type().is_symlink() => {
+                let link = std::fs::read_link(&resolved).map_err(io)?;
+                resolved = match resolved.parent() {
+                    Some(dir) if link.is_relative() => dir.join(link),
+                    _ => link,
+                };
+            }
+            Ok(meta) if meta.is_file() => return Ok(resolved),
+            Ok(meta) => {
+                let kind = if meta.is_dir() { "a directory" } else { "not a regular file (a device, socket or pipe)" };
+                return Err(Error::invalid(
+                    "path",
+                    format!("{} is {kind} (expected a regular file to write, or a new name)", resolved.display()),
+                ));
+            }
+        }
+    }
+    Err(Error::invalid("path", format!("{} (too many levels of symbolic links)", path.display())))
+}
+
+/// Writes `path` through a unique temporary file in its folder, synced, then renamed over it.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let target = target(path)?;
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = target.file_name().map_or_else(|| "file".into(), |n| n.to_string_lossy().into_owned());
+    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
+    let (file, tmp) = loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".{name}.{}.{n}.{nanos}.tmp", std::process::id()));
+        match OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(file) => break (file, tmp),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(source) => return Err(Error::Io { path: tmp, source }),
+        }
+    };
+    let written = (|| -> std::io::Result<()> {
+        let mut out = BufWriter::with_capacity(1 << 20, file);
+        write(&mut out)?;
+        out.flush()?;
+        out.into_inner().map_err(std::io::IntoInnerError::into_error)?.sync_all()?;
+        std::fs::rename(&tmp, &target)
+    })();
+    if let Err(source) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::Io { path: target, source });
+    }
+    // Make the rename itself durable (best effort: not every system can sync a folder).
+    if let Ok(d) = File::open(&dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// The bytes of `path`, refused before reading when the file is over `max_bytes`.
+pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let size = std::fs::metadata(path).map_err(io)?.len();
+    if size > max_bytes {
+        return Err(Error::invalid(
+            what,
+            format!("{} has {size} bytes (at most {max_bytes} are read)", path.display()),
+        ));
+    }
+    std::fs::read(path).map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("ceworld-files-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn a_write_replaces_the_file_whole_and_leaves_no_temporary() {
+        let dir = temp_dir("whole");
+        let path = dir.join("a.json");
+        write_atomic(&path, |w| w.write_all(b"first")).unwrap();
+        write_atomic(&path, |w| w.write_all(b"second")).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"second");
+        let failed = write_atomic(&path, |w| {
+            w.write_all(b"half")?;
+            Err(std::io::Error::other("interrupted"))
+        });
+        assert!(failed.is_err());
+        assert_eq!(std::fs::read(&path).unwrap(), b"second", "a failed write leaves the old file");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "no temporary file is left");
+    }
+
+    #[test]
+    fn devices_and_directories_are_refused_and_links_written_through() {
+        let dir = temp_dir("kinds");
+        let e = write_atomic(&dir, |w| w.write_all(b"x")).unwrap_err().to_string();
+        assert!(e.contains("is a directory"), "{e}");
+        #[cfg(unix)]
+        {
+            let e = write_atomic(Path::new("/dev/null"), |w| w.write_all(b"x")).unwrap_err().to_string();
+            assert!(e.contains("not a regular file"), "{e}");
+            use std::os::unix::fs::FileTypeExt;
+            assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
+            let real = dir.join("real.json");
+            std::fs::write(&real, b"old").unwrap();
+            let link = dir.join("link.json");
+            std::os::unix::fs::symlink("real.json", &link).unwrap();
+            write_atomic(&link, |w| w.write_all(b"new")).unwrap();
+            assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link stays");
+            assert_eq!(std::fs::read(&real).unwrap(), b"new", "its file is replaced");
+        }
+    }
+
+    #[test]
+    fn concurrent_writers_never_mix_their_files() {
+        let dir = temp_dir("concurrent");
+        let path = dir.join("shared.txt");
+        write_atomic(&path, |w| w.write_all(&[b'a'; 100_000])).unwrap();
+        std::thread::scope(|s| {
+            for byte in [b'b', b'c', b'd'] {
+                let path = &path;
+                s.spawn(move || {
+                    for _ in 0..20 {
+                        write_atomic(path, |w| w.write_all(&[byte; 100_000])).unwrap();
+                    }
+                });
+            }
+            let path = &path;
+            s.spawn(move || {
+                for _ in 0..200 {
+                    let bytes = std::fs::read(path).unwrap();
+                    assert_eq!(bytes.len(), 100_000);
+                    assert!(bytes.iter().all(|&b| b == bytes[0]), "a mixed file");
+                }
+            });
+        });
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn reads_over_the_limit_are_refused_before_reading() {
+        let dir = temp_dir("limit");
+        let path = dir.join("big");
+        std::fs::write(&path, vec![b' '; 1000]).unwrap();
+        assert_eq!(read_limited(&path, 1000, "policy file").unwrap().len(), 1000);
+        let e = read_limited(&path, 999, "policy file").unwrap_err().to_string();
+        assert!(e.contains("1000 bytes (at most 999"), "{e}");
+    }
+}
