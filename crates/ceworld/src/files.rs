@@ -126,9 +126,9 @@ mod tests {
         assert!(e.contains("is a directory"), "{e}");
         #[cfg(unix)]
         {
+            use std::os::unix::fs::FileTypeExt;
             let e = write_atomic(Path::new("/dev/null"), |w| w.write_all(b"x")).unwrap_err().to_string();
             assert!(e.contains("not a regular file"), "{e}");
-            use std::os::unix::fs::FileTypeExt;
             assert!(std::fs::metadata("/dev/null").unwrap().file_type().is_char_device());
             let real = dir.join("real.json");
             std::fs::write(&real, b"old").unwrap();
@@ -144,13 +144,13 @@ mod tests {
     fn concurrent_writers_never_mix_their_files() {
         let dir = temp_dir("concurrent");
         let path = dir.join("shared.txt");
-        write_atomic(&path, |w| w.write_all(&[b'a'; 100_000])).unwrap();
+        write_atomic(&path, |w| w.write_all(&vec![b'a'; 100_000])).unwrap();
         std::thread::scope(|s| {
             for byte in [b'b', b'c', b'd'] {
                 let path = &path;
                 s.spawn(move || {
                     for _ in 0..20 {
-                        write_atomic(path, |w| w.write_all(&[byte; 100_000])).unwrap();
+                        write_atomic(path, |w| w.write_all(&vec![byte; 100_000])).unwrap();
                     }
                 });
             }

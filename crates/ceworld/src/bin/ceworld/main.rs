@@ -78,17 +78,19 @@ enum Command {
     /// The run is checkpointed (table, update count, random stream, world state) every
     /// --checkpoint-every seconds, on Ctrl-C and at the end; --resume continues it exactly as
     /// if it had never stopped. Then the greedy policy is evaluated on 100-step windows.
-    ///
-    /// Example (a small table, a few seconds): ceworld qlearn --param width=5 --param height=5
-    /// --param start_b=[0,4] --param start_c=[4,4] --param target_cell=[2,2] --param
-    /// target_rows=[0,2] --iterations 1e5 --window 20 --episodes 100 --chains 2 --burn-in 100
-    /// --windows-per-chain 50 --out qtable.bin
+    #[command(after_long_help = QLEARN_EXAMPLE)]
     Qlearn(QlearnArgs),
     /// Evaluate on 100-step windows, as the paper compares them, the greedy policy of a Q table
     /// and/or HHMM policies: (a) windows from the initial state, (b) consecutive windows of long
     /// continuing runs after a burn-in; worst, mean, best, also as % of 69.
     QlearnEval(QlearnEvalArgs),
 }
+
+/// The example at the end of `ceworld qlearn --help` (a test runs it as written).
+const QLEARN_EXAMPLE: &str = "Example (a small table, a few seconds): ceworld qlearn --param width=5 \
+    --param height=5 --param start_b=[0,4] --param start_c=[4,4] --param target_cell=[2,2] \
+    --param target_rows=[0,2] --iterations 1e5 --window 20 --episodes 100 --chains 2 --burn-in 100 \
+    --windows-per-chain 50 --out qtable.bin";
 
 /// Which world: a name of the registry and its parameters.
 #[derive(clap::Args)]
