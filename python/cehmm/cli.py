@@ -2,6 +2,7 @@
 
 Subcommands:
     reproduce   run the paper's results table and write the report (:mod:`cehmm.reproduce`)
+    benchmarks  CE controllers on every ``.pomdp`` file, against SARSOP (:mod:`cehmm.benchmarks`)
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ USAGE = """usage: cehmm SUBCOMMAND [ARGS...]
 subcommands:
   reproduce   reproduce the paper's results table (model §5) and write the report
               (cehmm reproduce --help for its options)
+  benchmarks  learn controllers for every .pomdp file of data/pomdp and write
+              docs/benchmarks.md (cehmm benchmarks --help for its options)
 """
 
 
@@ -28,6 +31,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         from . import reproduce
 
         return reproduce.main(rest)
+    if command == "benchmarks":
+        from . import benchmarks
+
+        return benchmarks.main(rest)
     print(f"cehmm: unknown subcommand {command!r}\n\n{USAGE}", end="", file=sys.stderr)
     return 2
 

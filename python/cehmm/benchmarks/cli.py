@@ -1,0 +1,175 @@
+"""The command line: ``python -m cehmm.benchmarks`` runs the jobs, writes the data and the report."""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import shlex
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..reproduce.machine import machine_info, source_commit
+from ..reproduce.records import append_record, read_records
+from ..reproduce.tables import _write_text
+from ..reproduce.text import _fmt_duration
+from . import config
+from .files import file_facts, find_files, parse_sarsop
+from .report import render_report
+from .run import run_jobs
+
+PROG = "python -m cehmm.benchmarks"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description="Learns controllers by CE on every .pomdp file of the data folder (each file × controller a "
+        "job), evaluates each exactly and writes OUT/data/benchmarks.jsonl (rewritten by each run: one line per "
+        "file and per finished job) and the report OUT/benchmarks.md, against SARSOP's bounds from SOURCES.md.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("--files", nargs="+", metavar="GLOB", help="files whose name or stem matches (default: all)")
+    p.add_argument(
+        "--controllers",
+        nargs="+",
+        metavar="NAME",
+        help=f"controllers, by name or comma-separated (default: all of {', '.join(config.CONTROLLERS)})",
+    )
+    p.add_argument("--time-limit", type=float, default=None, help=f"CE seconds per job (default {config.TIME_LIMIT:g})")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"files {', '.join(config.QUICK_FILES)}, controllers {', '.join(config.QUICK_CONTROLLERS)}, "
+        f"{config.QUICK_TIME_LIMIT:g} s per job (each unless given)",
+    )
+    p.add_argument("--report-only", action="store_true", help="run nothing: rebuild the report from the data")
+    p.add_argument(
+        "--check", action="store_true", help="with --report-only: write nothing, exit 1 if the report differs"
+    )
+    p.add_argument(
+        "--jobs", type=int, default=1, help="worker processes of one engine thread each (1: every core for each job)"
+    )
+    p.add_argument("--out", type=Path, default=config.DEFAULT_OUT, help="report folder (the data goes to OUT/data/)")
+    p.add_argument("--data-dir", type=Path, default=config.DEFAULT_DATA_DIR, help="the .pomdp files and SOURCES.md")
+    p.add_argument("--samples", type=int, default=config.SAMPLES, help="episodes per CE iteration")
+    p.add_argument("--rho", type=float, default=config.RHO, help="selective rate")
+    p.add_argument("--smoothing", type=float, default=config.SMOOTHING, help="CE smoothing")
+    p.add_argument("--patience", type=int, default=config.PATIENCE, help="iterations without gain before stopping")
+    p.add_argument("--init", default=config.INIT, choices=["random", "uniform"], help="starting tables")
+    p.add_argument("--reward", default=config.REWARD, choices=["belief", "sampled"], help="the world's reward")
+    p.add_argument("--seed", type=int, default=config.SEED, help="seed of every job")
+    return p
+
+
+def select_controllers(names: Sequence[str] | None) -> dict[str, list[int]]:
+    """The controllers named (``"1 node"`` or ``"1 node,2 nodes"``; case-insensitive), in CONTROLLERS order."""
+    if not names:
+        return dict(config.CONTROLLERS)
+    wanted = {n.strip().lower() for item in names for n in item.split(",") if n.strip()}
+    known = {name.lower(): name for name in config.CONTROLLERS}
+    unknown = sorted(wanted - set(known))
+    if unknown:
+        raise SystemExit(f"{PROG}: error: unknown controller(s) {unknown}; known: {', '.join(config.CONTROLLERS)}")
+    return {name: levels for name, levels in config.CONTROLLERS.items() if name.lower() in wanted}
+
+
+def _paths(out: Path) -> tuple[Path, Path]:
+    return out / config.REPORT_NAME, out / "data" / config.JSONL_NAME
+
+
+def _report_only(args: argparse.Namespace) -> int:
+    report, jsonl = _paths(args.out)
+    records = read_records(jsonl)
+    if not any(r.get("record") == "file" for r in records):
+        print(f"{PROG}: error: {jsonl} has no records; run without --report-only first", file=sys.stderr)
+        return 2
+    text = render_report(records)
+    if args.check:
+        if (report.read_text() if report.exists() else None) != text:
+            print(f"{report} is not what {jsonl} gives: run {PROG} --report-only", file=sys.stderr)
+            return 1
+        print(f"{report} is what {jsonl} gives")
+        return 0
+    _write_text(report, text)
+    print(f"wrote {report} from {jsonl}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    if args.check and not args.report_only:
+        raise SystemExit(f"{PROG}: error: --check goes with --report-only")
+    if args.report_only:
+        return _report_only(args)
+    if args.quick:
+        args.files = args.files or list(config.QUICK_FILES)
+        args.controllers = args.controllers or list(config.QUICK_CONTROLLERS)
+        args.time_limit = config.QUICK_TIME_LIMIT if args.time_limit is None else args.time_limit
+    time_limit = config.TIME_LIMIT if args.time_limit is None else args.time_limit
+    controllers = select_controllers(args.controllers)
+    files = find_files(args.data_dir, args.files)
+    if not files:
+        print(f"{PROG}: error: no .pomdp file in {args.data_dir} matches {args.files}", file=sys.stderr)
+        return 2
+    sources = args.data_dir / "SOURCES.md"
+    sarsop = parse_sarsop(sources.read_text()) if sources.exists() else {}
+    settings = {**config.default_settings(), "time_limit": time_limit}
+    flags = ("samples", "rho", "smoothing", "patience", "init", "reward", "seed")
+    settings.update({k: getattr(args, k) for k in flags})
+
+    report, jsonl = _paths(args.out)
+    n_jobs = max(1, args.jobs)
+    facts = [file_facts(path, sarsop) for path in files]
+    readable = [f for f in facts if f["parse"] == "ok"]
+    out_flag = "" if args.out == config.DEFAULT_OUT else f" --out {shlex.quote(str(args.out))}"
+    meta: dict[str, Any] = {
+        "command": " ".join([PROG, *(shlex.quote(a) for a in argv)]),
+        "run": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "machine": machine_info(),
+        "commit": source_commit(),
+        "data": jsonl.as_posix(),
+        "report_only_command": f"{PROG} --report-only{out_flag}",
+        "planned": len(readable) * len(controllers),
+        "parallel": n_jobs,
+        "tolerance": config.TOLERANCE,
+        "controllers": controllers,
+        "settings": settings,
+    }
+    jsonl.parent.mkdir(parents=True, exist_ok=True)
+    jsonl.write_text("")  # each run rewrites the data: the report always describes one run
+    for f in facts:
+        append_record(jsonl, {"record": "file", **f, **meta})
+    jobs = [
+        {
+            "file": f["file"],
+            "path": str(args.data_dir / f["file"]),
+            "controller": name,
+            "levels": levels,
+            "horizon": f["horizon"],
+            "threads": None if n_jobs == 1 else 1,
+            "settings": {**settings, **config.CONTROLLER_SETTINGS.get(name, {})},
+            "meta": meta,
+        }
+        for f in readable
+        for name, levels in controllers.items()
+    ]
+    refused = len(facts) - len(readable)
+    print(
+        f"{len(jobs)} job(s): {len(readable)} file(s) × {len(controllers)} controller(s), {time_limit:g} s each"
+        + (f" ({refused} file(s) refused by the reader)" if refused else "")
+        + f"; {n_jobs} at a time; data {jsonl}",
+        flush=True,
+    )
+    start = time.perf_counter()
+    outcome = run_jobs(jobs, jsonl, n_jobs)
+    if outcome.stopping:
+        print(f"interrupted: {outcome.finished} job(s) finished and kept in {jsonl}", file=sys.stderr, flush=True)
+    if outcome.failed:
+        print(f"{len(outcome.failed)} job(s) failed:\n  " + "\n  ".join(outcome.failed), file=sys.stderr, flush=True)
+    _write_text(report, render_report(read_records(jsonl)))
+    print(f"wrote {report} ({_fmt_duration(time.perf_counter() - start)})", flush=True)
+    return 130 if outcome.stopping else (1 if outcome.failed else 0)

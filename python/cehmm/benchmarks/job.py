@@ -1,0 +1,78 @@
+"""One job, in this process or in a worker: a controller learned by CE on one file, then its exact value and
+its shape as a finite-state controller."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import signal
+import time
+from typing import Any
+
+import cehmm
+
+from .config import TOLERANCE
+
+
+def ignore_sigint() -> None:
+    """Worker processes: Ctrl-C reaches the parent alone, which lets the running jobs finish."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def run_job(job: dict[str, Any]) -> dict[str, Any]:
+    """Runs one (file, controller) job and returns its JSONL record, ``{"interrupted": True}`` when a Ctrl-C
+    stopped it, or ``{"error": ...}`` when it failed."""
+    try:
+        return _run(job)
+    except KeyboardInterrupt:
+        return {"interrupted": True}
+    except BaseException as e:  # a pyo3 panic is a BaseException; reported by the caller, which goes on
+        if isinstance(e, (SystemExit, GeneratorExit)):
+            raise
+        return {"error": f"{type(e).__name__}: {e}", "file": job["file"], "controller": job["controller"]}
+
+
+def _run(job: dict[str, Any]) -> dict[str, Any]:
+    settings = dict(job["settings"])
+    reward = settings.pop("reward")
+    world = cehmm.PomdpWorld.from_file(job["path"], horizon=job["horizon"], reward=reward)
+    result = cehmm.optimize(world, levels=job["levels"], threads=job["threads"], progress=False, **settings)
+    if result.interrupted:
+        return {"interrupted": True}
+    policy = result.policy
+    start = time.perf_counter()
+    infinite = world.discount < 1.0
+    exact = policy.evaluate_exact(infinite=True, tolerance=TOLERANCE) if infinite else policy.evaluate_exact()
+    exact_seconds = time.perf_counter() - start
+    try:
+        policy.graph(form="pg")
+        deterministic = True
+    except cehmm.InvalidArgumentError:
+        deterministic = False
+    nodes = len(policy.graph(form="json")["nodes"])
+    return {
+        "record": "job",
+        "file": job["file"],
+        "controller": job["controller"],
+        "levels": list(job["levels"]),
+        "horizon": job["horizon"],
+        "gamma": world.discount,
+        "value": exact.value,
+        "value_kind": "infinite" if infinite else "horizon",
+        "tail_bound": exact.tail_bound,
+        "exact_steps": exact.steps,
+        "exact_seconds": round(exact_seconds, 3),
+        "ce_seconds": round(result.seconds, 3),
+        "iterations": result.iterations,
+        "stop_reason": result.stop_reason,
+        "sampled_mean": result.evaluation.mean,
+        "sampled_std_error": result.evaluation.std_error,
+        "deterministic": deterministic,
+        "nodes": nodes,
+        "threads": job["threads"] or (os.cpu_count() or 1),
+        "settings": job["settings"],
+        "sha256": world.sha256,
+        "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        **job["meta"],
+        "version": cehmm.__version__,
+    }
