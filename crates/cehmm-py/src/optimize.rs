@@ -12,6 +12,7 @@ use crate::convert::{count, flag, optional_count, optional_real, real, seed, tex
 use crate::errors::OrRaise;
 use crate::policy::PyPolicy;
 use crate::results::PyEvaluation;
+use crate::signals::Signals;
 use crate::world::PyWorld;
 
 /// What `optimize` returns (wrapped by `cehmm.OptimizeResult`).
@@ -133,14 +134,15 @@ pub fn optimize(
     };
     let progress = flag("progress", progress)?;
     let (world, initial) = (&world.world, initial.file.policy.clone());
-    py.detach(|| {
+    let mut signals = Signals::default();
+    let outcome = py.detach(|| {
         with_world!(world, w => {
             let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
             let result = ceworld::optimize(w, initial, &config, |record| {
                 if let Some(line) = &mut line {
                     line.update(record);
                 }
-                crate::signals::flow_after_signals()
+                signals.flow()
             });
             if let Some(line) = line {
                 line.finish();
@@ -151,6 +153,7 @@ pub fn optimize(
                 result,
             })
         })
-    })
-    .or_raise()
+    });
+    signals.finish(py)?;
+    outcome.or_raise()
 }

@@ -17,6 +17,9 @@ use crate::errors::{OrRaise, raise};
 use crate::results::{PyEvaluation, PyExactValue, PyRollout};
 use crate::world::PyWorld;
 
+/// Episodes evaluated between two runs of the signal handlers.
+const EVALUATION_SLICE: usize = 100_000;
+
 #[pyclass(module = "cehmm._core", name = "Policy", frozen)]
 pub struct PyPolicy {
     pub file: PolicyFile,
@@ -203,12 +206,23 @@ impl PyPolicy {
     ) -> PyResult<PyEvaluation> {
         let (episodes, seed_, threads) =
             (count("episodes", episodes)?, self::seed("seed", seed)?, optional_count("threads", threads)?);
+        ceworld::evaluate::check_episodes(episodes).or_raise()?;
         let (world, policy) = (&world.world, &self.file.policy);
-        let evaluation = py
-            .detach(|| {
-                thread_pool(threads)?.install(|| with_world!(world, w => ceworld::evaluate(w, policy, episodes, seed_)))
-            })
-            .or_raise()?;
+        let pool = thread_pool(threads).or_raise()?;
+        // Slices of episodes, the signal handlers run between them: Ctrl-C stops a long
+        // evaluation within a slice (raising KeyboardInterrupt); the result does not depend on it.
+        let mut rewards = Vec::with_capacity(episodes);
+        for start in (0..episodes).step_by(EVALUATION_SLICE) {
+            let range = start..episodes.min(start + EVALUATION_SLICE);
+            let part = py
+                .detach(|| {
+                    pool.install(|| with_world!(world, w => ceworld::evaluate::rewards_of(w, policy, range, seed_)))
+                })
+                .or_raise()?;
+            rewards.extend(part);
+            py.check_signals()?;
+        }
+        let evaluation = ceworld::Evaluation::from_rewards(&rewards);
         Ok(PyEvaluation(evaluation))
     }
 

@@ -16,6 +16,7 @@ use crate::convert::{count, flag, optional_count, optional_real, real, seed, tex
 use crate::errors::{OrRaise, raise};
 use crate::policy::PyPolicy;
 use crate::results::PyWindowEvaluation;
+use crate::signals::Signals;
 use crate::world::PyWorld;
 
 /// The window settings: the core's defaults, overridden by the keyword arguments given.
@@ -162,24 +163,24 @@ impl PyQLearner {
         let progress = flag("progress", progress)?;
         let every = optional_real("checkpoint_every", checkpoint_every)?;
         let learner = &mut self.learner;
-        let outcome = py
-            .detach(|| {
-                with_learner!(learner, q => {
-                    let mut line = progress.then(LiveLine::stderr);
-                    let outcome = q.train(until, checkpoint.as_deref(), every, |p| {
-                        if let Some(line) = &mut line {
-                            line.update(p.line());
-                        }
-                        crate::signals::flow_after_signals()
-                    });
-                    if let Some(line) = line {
-                        line.finish();
+        let mut signals = Signals::default();
+        let outcome = py.detach(|| {
+            with_learner!(learner, q => {
+                let mut line = progress.then(LiveLine::stderr);
+                let outcome = q.train(until, checkpoint.as_deref(), every, |p| {
+                    if let Some(line) = &mut line {
+                        line.update(p.line());
                     }
-                    outcome
-                })
+                    signals.flow()
+                });
+                if let Some(line) = line {
+                    line.finish();
+                }
+                outcome
             })
-            .or_raise()?;
-        Ok(outcome.interrupted)
+        });
+        signals.finish(py)?;
+        Ok(outcome.or_raise()?.interrupted)
     }
 
     /// The greedy policy evaluated on windows of `world`; ties broken as in learning unless

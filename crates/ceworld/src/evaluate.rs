@@ -57,16 +57,34 @@ pub const MAX_EPISODES: usize = 100_000_000;
 
 /// Rewards of `episodes` fresh episodes (streams `(seed, Evaluate, 0, k)`), in episode order.
 pub fn rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Vec<f64>> {
-    check_fits(world, policy)?;
+    check_episodes(episodes)?;
+    rewards_of(world, policy, 0..episodes, seed)
+}
+
+/// `episodes` is a number of evaluation episodes the engine takes: `1..=MAX_EPISODES`.
+pub fn check_episodes(episodes: usize) -> Result<()> {
     if episodes == 0 || episodes > MAX_EPISODES {
         return Err(Error::invalid("episodes", format!("{episodes} (expected 1..={MAX_EPISODES})")));
     }
-    Ok(episode_rewards(world, policy, episodes, seed, Purpose::Evaluate))
+    Ok(())
 }
 
-/// Rewards of the episodes of streams `(seed, purpose, 0, k)`, `k < episodes`, in order.
-fn episode_rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64, purpose: Purpose) -> Vec<f64> {
-    (0..episodes)
+/// Rewards of the evaluation episodes `range` (streams `(seed, Evaluate, 0, k)`), in order: a
+/// slice of [`rewards`], so that a long evaluation can be cut into slices with the same result.
+pub fn rewards_of<W: World>(world: &W, policy: &Hhmm, range: std::ops::Range<usize>, seed: u64) -> Result<Vec<f64>> {
+    check_fits(world, policy)?;
+    Ok(episode_rewards(world, policy, range, seed, Purpose::Evaluate))
+}
+
+/// Rewards of the episodes of streams `(seed, purpose, 0, k)`, `k` in `range`, in order.
+fn episode_rewards<W: World>(
+    world: &W,
+    policy: &Hhmm,
+    range: std::ops::Range<usize>,
+    seed: u64,
+    purpose: Purpose,
+) -> Vec<f64> {
+    range
         .into_par_iter()
         .map(|k| {
             let mut rng = stream(seed, purpose, 0, k as u64);
@@ -80,7 +98,7 @@ fn episode_rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u6
 pub fn selection_mean<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
     check_fits(world, policy)?;
     // Summed in episode order, so the score does not depend on the thread count.
-    let total: f64 = episode_rewards(world, policy, episodes, seed, Purpose::Select).iter().sum();
+    let total: f64 = episode_rewards(world, policy, 0..episodes, seed, Purpose::Select).iter().sum();
     Ok(total / episodes as f64)
 }
 
@@ -162,6 +180,17 @@ mod tests {
         assert!((e.std - (5.0f64 / 3.0).sqrt()).abs() < 1e-12);
         assert!((e.std_error - e.std / 2.0).abs() < 1e-12);
         assert_eq!(e.quantiles[2], (0.5, 2.0));
+    }
+
+    #[test]
+    fn slices_of_an_evaluation_are_its_episodes() {
+        let world = crate::TargetTracking::new(3).unwrap();
+        let policy = crate::random_policy(&world, &[4], 2).unwrap();
+        let all = rewards(&world, &policy, 10, 5).unwrap();
+        let mut parts = rewards_of(&world, &policy, 0..4, 5).unwrap();
+        parts.extend(rewards_of(&world, &policy, 4..10, 5).unwrap());
+        assert_eq!(parts, all);
+        assert!(check_episodes(0).is_err() && check_episodes(MAX_EPISODES + 1).is_err() && check_episodes(1).is_ok());
     }
 
     #[test]

@@ -123,3 +123,29 @@ fn ctrl_c_saves_the_best_policy_so_far() {
     assert_eq!(doc["provenance"]["interrupted"], true);
     assert!(doc["provenance"]["iterations"].as_u64().unwrap() >= 1);
 }
+
+#[cfg(unix)]
+#[test]
+fn sigterm_saves_the_best_policy_so_far_and_exits_143() {
+    let path = temp("terminated.json");
+    let (status, stdout, stderr) = common::signal_when_ready(
+        "-TERM",
+        &[
+            "optimize",
+            "--case",
+            "3",
+            "--levels",
+            "16",
+            "--samples",
+            "500",
+            "--patience",
+            "100000",
+            "--out",
+            path.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(status.code(), Some(143), "SIGTERM exits with 143 after saving: {stderr}");
+    assert!(stdout.starts_with("interrupted:"), "{stdout}");
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(doc["provenance"]["interrupted"], true);
+}

@@ -7,6 +7,11 @@ use std::process::Command;
 /// returns (exit status, stdout, stderr).
 #[cfg(unix)]
 pub fn interrupt_when_ready(args: &[&str]) -> (std::process::ExitStatus, String, String) {
+    signal_when_ready("-INT", args)
+}
+
+/// As [`interrupt_when_ready`], with the signal `signal` (as `kill` takes it: `-TERM`, ...).
+pub fn signal_when_ready(signal: &str, args: &[&str]) -> (std::process::ExitStatus, String, String) {
     use std::io::{BufRead, Read};
     let mut child = Command::new(env!("CARGO_BIN_EXE_ceworld"))
         .args(args)
@@ -18,7 +23,7 @@ pub fn interrupt_when_ready(args: &[&str]) -> (std::process::ExitStatus, String,
     let mut first = Vec::new();
     stderr.read_until(b'\n', &mut first).unwrap();
     assert!(first.ends_with(b"\n"), "no start line: {}", String::from_utf8_lossy(&first));
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let status = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
     assert!(status.success());
     let mut rest = String::new();
     stderr.read_to_string(&mut rest).unwrap();

@@ -1,11 +1,10 @@
 //! `ceworld`: optimise, evaluate and inspect HHMM policies from the command line.
 
 mod qlearn;
+mod stop;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use ceworld::progress::{CeProgress, LiveLine};
@@ -262,16 +261,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         };
         init.policy(world, &args.levels, args.seed)?
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // A second Ctrl-C while the first is being honoured kills the process as usual.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-        });
-    }
+    stop::install();
     if !args.quiet {
         eprintln!(
             "ceworld: world {} levels {:?} ({} parameters), N = {}, rho = {}, alpha = {}, patience {}, seed {}",
@@ -297,7 +287,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
             }
             progress.update(r);
         }
-        if stop.load(Ordering::SeqCst) { Flow::Stop } else { Flow::Continue }
+        if stop::requested() { Flow::Stop } else { Flow::Continue }
     })?;
     if let Some(progress) = progress {
         progress.finish();
@@ -322,9 +312,6 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         e.max,
         args.out.display()
     );
-    if result.interrupted() {
-        INTERRUPTED.store(true, Ordering::SeqCst);
-    }
     Ok(())
 }
 
@@ -404,14 +391,10 @@ fn run() -> Result<()> {
     }
 }
 
-/// Set when Ctrl-C stopped a run: the process then exits with 130 (after saving what it has),
-/// so that `ceworld optimize ... && next` does not go on.
-pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
 fn main() -> ExitCode {
     match run() {
-        Ok(()) if INTERRUPTED.load(Ordering::SeqCst) => ExitCode::from(130),
-        Ok(()) => ExitCode::SUCCESS,
+        // A run stopped by a signal saved what it had: exit with 128 + the signal.
+        Ok(()) => stop::exit_code().map_or(ExitCode::SUCCESS, ExitCode::from),
         Err(e) => {
             eprintln!("ceworld: error: {e}");
             ExitCode::from(2)

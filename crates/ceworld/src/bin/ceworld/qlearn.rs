@@ -2,8 +2,6 @@
 //! comparison of policies.
 
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use serde_json::Value;
@@ -142,18 +140,6 @@ fn peak_rss() -> Option<u64> {
     Some(kib.parse::<u64>().ok()? * 1024)
 }
 
-/// A Ctrl-C flag; a second Ctrl-C while the first is being honoured kills the process.
-fn stop_flag() -> Arc<AtomicBool> {
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
-    let _ = ctrlc::set_handler(move || {
-        if flag.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-    });
-    stop
-}
-
 /// The learner `qlearn` runs: the checkpoint's with `--resume` (which must match the world and
 /// the settings asked for), else a fresh one (refusing to overwrite a checkpoint unasked).
 fn open_learner(
@@ -189,7 +175,6 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
     let mut learner = open_learner(args, world_from(&args.world)?, config, &checkpoint)?;
     let interrupted = with_learner!(&mut learner, q => train(args, q, &checkpoint))?;
     if interrupted {
-        super::INTERRUPTED.store(true, Ordering::SeqCst);
         println!("continue with: ceworld qlearn --resume --checkpoint {} ...", checkpoint.display());
     } else if !args.no_eval {
         let pool = thread_pool(args.windows.threads)?;
@@ -206,7 +191,7 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
 /// The learning run of `qlearn` on a learner of any world with a known state; whether Ctrl-C
 /// stopped it.
 fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint: &std::path::Path) -> Result<bool> {
-    let stop = stop_flag();
+    super::stop::install();
     if !args.quiet {
         eprintln!(
             "ceworld qlearn: {}, {} states × {} actions (f32, {:.2} GiB), gamma {}, alpha {}, epsilon = min(1, 1/ln t), {} ties, seed {}; from {} to {} updates; checkpoint {} every {}s",
@@ -229,7 +214,7 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
         if let Some(line) = &mut line {
             line.update(p.line());
         }
-        if stop.load(Ordering::SeqCst) { Flow::Stop } else { Flow::Continue }
+        if super::stop::requested() { Flow::Stop } else { Flow::Continue }
     })?;
     if let Some(line) = line {
         line.finish();
