@@ -20,6 +20,7 @@ pub mod error;
 pub mod evaluate;
 pub mod exact;
 pub mod files;
+pub mod memory;
 pub mod policy;
 pub mod progress;
 pub mod qlearn;

@@ -4,5 +4,6 @@
 pub mod counting;
 pub mod episode;
 pub mod init;
+pub mod limits;
 pub mod optimize;
 pub mod posterior;

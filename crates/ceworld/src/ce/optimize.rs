@@ -7,6 +7,8 @@ use serde::Serialize;
 
 use crate::ce::counting::count_episode;
 use crate::ce::episode::run_recorded;
+pub use crate::ce::limits::MAX_RECORD_BYTES;
+use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
 use crate::control::{Flow, check_threads, thread_pool};
 use crate::error::{Error, Result};
 use crate::evaluate::{Evaluation, MAX_EPISODES, check_fits, evaluate, selection_mean};
@@ -109,12 +111,6 @@ impl Default for CeConfig {
         }
     }
 }
-
-/// Largest memory for the recorded episodes of one iteration.
-pub const MAX_RECORD_BYTES: usize = 8 << 30;
-
-/// Elite episodes per block of forward–backward counts (fixed, for thread-count independence).
-const FB_BLOCK: usize = 32;
 
 /// The elite's counts: integers when the memory is counted as sampled, reals when re-inferred.
 enum Counts {
@@ -333,6 +329,15 @@ fn optimize_once<W: World>(
     let stride = horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
     check_iteration_size(n, elite_count, horizon, stride)?;
+    let size = RunSize {
+        samples: n,
+        elite: elite_count,
+        horizon,
+        eval_episodes: config.eval_episodes,
+        forward_backward: config.memory_update == MemoryUpdate::ForwardBackward,
+        threads: pool.current_num_threads(),
+    };
+    check_run_memory(&layout, &size)?;
     let started = Instant::now();
     let mut policy = initial;
     let mut records = vec![0u16; n * stride];
@@ -412,26 +417,6 @@ fn optimize_once<W: World>(
         restart: 0,
         restart_scores: Vec::new(),
     })
-}
-
-/// Refuses an iteration whose elite would overflow the 32-bit counts or whose recorded episodes
-/// (`n` episodes of `stride` numbers) would not fit in [`MAX_RECORD_BYTES`].
-fn check_iteration_size(n: usize, elite_count: usize, horizon: usize, stride: usize) -> Result<()> {
-    if elite_count.saturating_mul(horizon) > u32::MAX as usize {
-        return Err(Error::invalid("samples", format!("{n}: ceil(rho·N)·T overflows the 32-bit counters")));
-    }
-    let record_bytes = (n as u128) * (stride as u128) * 2;
-    if record_bytes > MAX_RECORD_BYTES as u128 {
-        return Err(Error::invalid(
-            "samples",
-            format!(
-                "{n}: the episodes of one iteration would take {} MiB (at most {} MiB)",
-                record_bytes >> 20,
-                MAX_RECORD_BYTES >> 20
-            ),
-        ));
-    }
-    Ok(())
 }
 
 /// The stopping rule that holds after iteration `record` with `unsuccessful` unsuccessful

@@ -55,6 +55,19 @@ pub struct Layout {
 }
 
 impl Layout {
+    /// Bytes of one policy of this layout in memory: each entry's probability and alias entry.
+    pub fn policy_bytes(&self) -> u64 {
+        self.len as u64 * 16
+    }
+
+    /// The layout, if one policy of it fits in the memory available, else [`Error::Memory`]
+    /// (checked before the tables are allocated).
+    pub fn fits_in_memory(self) -> Result<Layout> {
+        let what = format!("a policy with levels {:?} ({} table entries)", self.levels, self.len);
+        crate::memory::check_memory(&what, self.policy_bytes(), crate::memory::available_memory())?;
+        Ok(self)
+    }
+
     /// The layout for `levels` (bottom level first) in a world with `n_obs` observations and
     /// `n_actions` decisions; every size must be in `1..=65535`.
     pub fn new(n_obs: usize, n_actions: usize, levels: &[usize]) -> Result<Layout> {
@@ -159,7 +172,7 @@ pub struct Hhmm {
 impl Hhmm {
     /// The policy whose every row is uniform (the CE starting point).
     pub fn uniform(n_obs: usize, n_actions: usize, levels: &[usize]) -> Result<Hhmm> {
-        let layout = Layout::new(n_obs, n_actions, levels)?;
+        let layout = Layout::new(n_obs, n_actions, levels)?.fits_in_memory()?;
         let mut probs = vec![0.0; layout.len];
         for t in &layout.tables {
             probs[t.offset..t.offset + t.rows * t.cols].fill(1.0 / t.cols as f64);
@@ -169,7 +182,7 @@ impl Hhmm {
 
     /// A policy whose rows are drawn at random (each entry uniform in (0, 1], then normalised).
     pub fn random(n_obs: usize, n_actions: usize, levels: &[usize], rng: &mut EngineRng) -> Result<Hhmm> {
-        let layout = Layout::new(n_obs, n_actions, levels)?;
+        let layout = Layout::new(n_obs, n_actions, levels)?.fits_in_memory()?;
         let mut probs: Vec<f64> = (0..layout.len).map(|_| 1.0 - rng.random::<f64>()).collect();
         for t in &layout.tables {
             for row in probs[t.offset..t.offset + t.rows * t.cols].chunks_mut(t.cols) {
@@ -194,7 +207,7 @@ impl Hhmm {
                 format!("{levels:?} (a clock needs two equal levels, e.g. [100, 100])"),
             ));
         }
-        let layout = Layout::new(n_obs, n_actions, levels)?;
+        let layout = Layout::new(n_obs, n_actions, levels)?.fits_in_memory()?;
         let m = levels[0];
         let mut probs = vec![0.0; layout.len];
         let t = &layout.tables;

@@ -59,10 +59,11 @@ mod table;
 mod tracking;
 mod windows;
 
+pub use crate::memory::{available_memory, check_memory};
 pub use any::{AnyLearner, evaluate_policy_windows};
 pub use checkpoint::read_header;
 pub use learner::{QLearner, QProgress, RunStats, TrainOutcome};
-pub use table::{QTable, available_memory, check_memory, table_bytes};
+pub use table::{QTable, table_bytes};
 pub use windows::{Greedy, WindowConfig, WindowPolicy, WindowReport, evaluate_windows, percent};
 
 /// The paper's discount `γ`.
