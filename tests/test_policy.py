@@ -246,3 +246,17 @@ def test_saving_never_replaces_what_is_not_a_regular_file(tmp_path, case1) -> No
     cehmm.Policy.uniform(case1, [3]).save(link)
     assert link.is_symlink() and cehmm.Policy.load(real).levels == [3]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.json", "real.json"]
+
+
+def test_unknown_keys_are_skipped_however_large(tmp_path, case1) -> None:
+    doc = json.loads(cehmm.Policy.uniform(case1, [2]).to_json())
+    doc["padding"] = {"notes": ["x" * 1000] * 5000, "deep": [[[1, 2, 3]] * 100] * 100}
+    path = tmp_path / "padded.json"
+    path.write_text(json.dumps(doc))
+    loaded = cehmm.Policy.load(path)
+    assert loaded.levels == [2] and "padding" not in json.loads(loaded.to_json())
+    assert cehmm.Policy.from_json(json.dumps(doc)).levels == [2]
+    with pytest.raises(cehmm.PolicyFormatError, match="expected an object"):
+        cehmm.Policy.from_json("[1, 2]")
+    with pytest.raises(cehmm.PolicyFormatError, match="not JSON"):
+        cehmm.Policy.from_json('{"format": ')

@@ -121,8 +121,7 @@ impl PyPolicy {
     /// Reads and checks a policy document (model §6) from its JSON text.
     #[staticmethod]
     fn from_json(text: &str) -> PyResult<Self> {
-        let doc: Value = serde_json::from_str(text).map_err(|e| raise(Error::format(format!("not JSON: {e}"))))?;
-        Ok(PyPolicy { file: PolicyFile::from_json(&doc).or_raise()? })
+        Ok(PyPolicy { file: PolicyFile::parse(text).or_raise()? })
     }
 
     /// Writes the policy file (model §6).

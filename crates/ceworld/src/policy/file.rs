@@ -176,8 +176,42 @@ impl PolicyFile {
         let bytes = crate::files::read_limited(path, MAX_FILE_BYTES, "policy file")?;
         let text = std::str::from_utf8(&bytes)
             .map_err(|e| with_path(Error::format(format!("not UTF-8 text ({e}): expected a JSON policy file"))))?;
-        let doc: Value = serde_json::from_str(text).map_err(|e| with_path(Error::format(format!("not JSON: {e}"))))?;
-        Self::from_json(&doc).map_err(with_path)
+        Self::parse(text).map_err(with_path)
+    }
+
+    /// Reads and checks a policy document from its JSON text. Only the keys of model §6 are
+    /// kept while parsing: an unknown key, however large, is skipped without being stored.
+    pub fn parse(text: &str) -> Result<PolicyFile> {
+        /// The keys of a policy document (model §6); serde skips the others.
+        #[derive(serde::Deserialize)]
+        struct Known {
+            format: Option<Value>,
+            version: Option<Value>,
+            n_obs: Option<Value>,
+            n_actions: Option<Value>,
+            levels: Option<Value>,
+            world: Option<Value>,
+            policy: Option<Value>,
+            provenance: Option<Value>,
+        }
+        let doc = match serde_json::from_str::<Known>(text) {
+            Ok(k) => {
+                let fields = [
+                    ("format", k.format),
+                    ("version", k.version),
+                    ("n_obs", k.n_obs),
+                    ("n_actions", k.n_actions),
+                    ("levels", k.levels),
+                    ("world", k.world),
+                    ("policy", k.policy),
+                    ("provenance", k.provenance),
+                ];
+                Value::Object(fields.into_iter().filter_map(|(key, v)| Some((key.to_string(), v?))).collect())
+            }
+            // Not an object (or not JSON): the document as it is, for `from_json` to name.
+            Err(_) => serde_json::from_str(text).map_err(|e| Error::format(format!("not JSON: {e}")))?,
+        };
+        Self::from_json(&doc)
     }
 }
 
