@@ -10,7 +10,13 @@ FAST = dict(samples=20, max_iterations=1, eval_episodes=10, progress=False)
 
 
 def test_hierarchy() -> None:
-    for error in [cehmm.InvalidArgumentError, cehmm.PolicyFormatError, cehmm.PolicyMismatchError]:
+    for error in [
+        cehmm.InvalidArgumentError,
+        cehmm.PolicyFormatError,
+        cehmm.PolicyMismatchError,
+        cehmm.ModelFormatError,
+        cehmm.InternalError,
+    ]:
         assert issubclass(error, cehmm.CehmmError)
     assert issubclass(cehmm.CehmmError, ValueError)
     assert cehmm.CehmmError.__module__ == "cehmm"

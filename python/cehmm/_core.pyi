@@ -17,6 +17,7 @@ __all__ = [
     "PolicyFormatError",
     "PolicyMismatchError",
     "ModelFormatError",
+    "InternalError",
     "World",
     "ExactValue",
     "Policy",
@@ -64,6 +65,9 @@ class InvalidArgumentError(CehmmError):
 
 class PolicyFormatError(CehmmError):
     """An invalid policy file or table (``ceworld::Error::PolicyFormat``)."""
+
+class InternalError(CehmmError):
+    """A bug: a panic inside the engine, caught (``ceworld::Error::Internal``)."""
 
 class ModelFormatError(CehmmError):
     """An invalid ``.pomdp`` file (``ceworld::Error::ModelFormat``)."""

@@ -29,6 +29,12 @@ create_exception!(
 );
 create_exception!(
     cehmm,
+    InternalError,
+    CehmmError,
+    "A bug: a panic inside the engine, caught and reported instead of crashing; please report it."
+);
+create_exception!(
+    cehmm,
     PolicyMismatchError,
     CehmmError,
     "A policy used with a world whose numbers of observations or decisions differ from the policy's."
@@ -45,6 +51,7 @@ pub fn raise(error: Error) -> PyErr {
         Error::PolicyFormat { .. } => PolicyFormatError::new_err(message),
         Error::Mismatch(_) => PolicyMismatchError::new_err(message),
         Error::ModelFormat(_) => ModelFormatError::new_err(message),
+        Error::Internal(_) => InternalError::new_err(message),
         Error::Memory { .. } => PyMemoryError::new_err(message),
         Error::Io { path, source } => match source.raw_os_error() {
             Some(errno) => {
@@ -67,4 +74,10 @@ impl<T> OrRaise<T> for Result<T, Error> {
     fn or_raise(self) -> PyResult<T> {
         self.map_err(raise)
     }
+}
+
+/// Runs `f` detached from the interpreter, a panic in it (or in its rayon tasks) raised as
+/// `InternalError` and its error as the matching exception.
+pub fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Error> + Send) -> PyResult<T> {
+    py.detach(|| ceworld::catch_panics(f)).map_err(raise)
 }

@@ -29,7 +29,9 @@ use pyo3::prelude::*;
 #[pymodule(gil_used = false)]
 mod _core {
     #[pymodule_export]
-    use super::errors::{CehmmError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError};
+    use super::errors::{
+        CehmmError, InternalError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError,
+    };
     #[pymodule_export]
     use super::optimize::{PyOptimizeOutcome, optimize};
     #[pymodule_export]

@@ -136,21 +136,23 @@ pub fn optimize(
     let (world, initial) = (&world.world, initial.file.policy.clone());
     let mut signals = Signals::default();
     let outcome = py.detach(|| {
-        with_world!(world, w => {
-            let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
-            let result = ceworld::optimize(w, initial, &config, |record| {
-                if let Some(line) = &mut line {
-                    line.update(record);
+        ceworld::catch_panics(|| {
+            with_world!(world, w => {
+                let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
+                let result = ceworld::optimize(w, initial, &config, |record| {
+                    if let Some(line) = &mut line {
+                        line.update(record);
+                    }
+                    signals.flow()
+                });
+                if let Some(line) = line {
+                    line.finish();
                 }
-                signals.flow()
-            });
-            if let Some(line) = line {
-                line.finish();
-            }
-            result.map(|result| PyOptimizeOutcome {
-                best: PolicyFile::from_result(w, &result, &config),
-                last: PolicyFile::from_last(w, &result, &config),
-                result,
+                result.map(|result| PyOptimizeOutcome {
+                    best: PolicyFile::from_result(w, &result, &config),
+                    last: PolicyFile::from_last(w, &result, &config),
+                    result,
+                })
             })
         })
     });

@@ -13,7 +13,7 @@ use ceworld::evaluate::{check_fits, rollout};
 use ceworld::{AnyWorld, Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
 
 use crate::convert::{count, flag, levels, object, optional_count, real, seed, shape_text, text, to_py};
-use crate::errors::{OrRaise, raise};
+use crate::errors::{OrRaise, detached, raise};
 use crate::results::{PyEvaluation, PyExactValue, PyRollout};
 use crate::world::PyWorld;
 
@@ -213,11 +213,9 @@ impl PyPolicy {
         let mut rewards = Vec::with_capacity(episodes);
         for start in (0..episodes).step_by(EVALUATION_SLICE) {
             let range = start..episodes.min(start + EVALUATION_SLICE);
-            let part = py
-                .detach(|| {
-                    pool.install(|| with_world!(world, w => ceworld::evaluate::rewards_of(w, policy, range, seed_)))
-                })
-                .or_raise()?;
+            let part = detached(py, || {
+                pool.install(|| with_world!(world, w => ceworld::evaluate::rewards_of(w, policy, range, seed_)))
+            })?;
             rewards.extend(part);
             py.check_signals()?;
         }
@@ -236,7 +234,7 @@ impl PyPolicy {
     ) -> PyResult<PyRollout> {
         let (seed, episode) = (self::seed("seed", seed)?, self::seed("episode", episode)?);
         let (world, policy) = (&world.world, &self.file.policy);
-        let recorded = py.detach(|| with_world!(world, w => rollout(w, policy, seed, episode))).or_raise()?;
+        let recorded = detached(py, || with_world!(world, w => rollout(w, policy, seed, episode)))?;
         Ok(PyRollout(recorded))
     }
 
@@ -260,15 +258,13 @@ impl PyPolicy {
         let (horizon, infinite, tolerance) =
             (optional_count("horizon", horizon)?, flag("infinite", infinite)?, real("tolerance", tolerance)?);
         let policy = &self.file.policy;
-        let value = py
-            .detach(|| {
-                if infinite {
-                    ceworld::exact::infinite_horizon(world, policy, tolerance)
-                } else {
-                    ceworld::exact::finite_horizon(world, policy, horizon)
-                }
-            })
-            .or_raise()?;
+        let value = detached(py, || {
+            if infinite {
+                ceworld::exact::infinite_horizon(world, policy, tolerance)
+            } else {
+                ceworld::exact::finite_horizon(world, policy, horizon)
+            }
+        })?;
         Ok(PyExactValue(value))
     }
 

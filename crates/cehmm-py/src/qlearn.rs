@@ -13,7 +13,7 @@ use ceworld::qlearn::{AnyLearner, KnownState, QConfig, Ties, WindowConfig};
 use ceworld::{Error, World, thread_pool, with_learner};
 
 use crate::convert::{count, flag, optional_count, optional_real, real, seed, text, to_py};
-use crate::errors::{OrRaise, raise};
+use crate::errors::{OrRaise, detached, raise};
 use crate::policy::PyPolicy;
 use crate::results::PyWindowEvaluation;
 use crate::signals::Signals;
@@ -53,7 +53,7 @@ fn windows(
     reference: f64,
     evaluate: impl FnOnce() -> ceworld::Result<ceworld::WindowReport> + Send,
 ) -> PyResult<PyWindowEvaluation> {
-    let report = py.detach(|| thread_pool(threads)?.install(evaluate)).or_raise()?;
+    let report = detached(py, || thread_pool(threads)?.install(evaluate))?;
     Ok(PyWindowEvaluation { report, reference })
 }
 
@@ -114,13 +114,13 @@ impl PyQLearner {
     ) -> PyResult<Self> {
         let config = q_config(gamma, alpha, seed, ties)?;
         let world = world.world.clone();
-        Ok(PyQLearner { learner: py.detach(|| AnyLearner::new(world, config)).or_raise()? })
+        Ok(PyQLearner { learner: detached(py, || AnyLearner::new(world, config))? })
     }
 
     /// Reads a run saved by `save` (or a `ceworld qlearn` checkpoint).
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        Ok(PyQLearner { learner: py.detach(|| AnyLearner::load(path)).or_raise()? })
+        Ok(PyQLearner { learner: detached(py, || AnyLearner::load(path))? })
     }
 
     /// Reads the run saved in `path` to continue it: it must have been made in `world` with
@@ -139,13 +139,13 @@ impl PyQLearner {
     ) -> PyResult<Self> {
         let config = q_config(gamma, alpha, seed, ties)?;
         let world = &world.world;
-        Ok(PyQLearner { learner: py.detach(|| AnyLearner::resume(path, world, &config)).or_raise()? })
+        Ok(PyQLearner { learner: detached(py, || AnyLearner::resume(path, world, &config))? })
     }
 
     /// Writes the run (header and table), atomically.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
         let learner = &self.learner;
-        py.detach(|| with_learner!(learner, q => q.save(path))).or_raise()
+        detached(py, || with_learner!(learner, q => q.save(path)))
     }
 
     /// Runs until `until` updates in all; Ctrl-C stops between chunks of updates (after saving
@@ -165,18 +165,20 @@ impl PyQLearner {
         let learner = &mut self.learner;
         let mut signals = Signals::default();
         let outcome = py.detach(|| {
-            with_learner!(learner, q => {
-                let mut line = progress.then(LiveLine::stderr);
-                let outcome = q.train(until, checkpoint.as_deref(), every, |p| {
-                    if let Some(line) = &mut line {
-                        line.update(p.line());
+            ceworld::catch_panics(|| {
+                with_learner!(learner, q => {
+                    let mut line = progress.then(LiveLine::stderr);
+                    let outcome = q.train(until, checkpoint.as_deref(), every, |p| {
+                        if let Some(line) = &mut line {
+                            line.update(p.line());
+                        }
+                        signals.flow()
+                    });
+                    if let Some(line) = line {
+                        line.finish();
                     }
-                    signals.flow()
-                });
-                if let Some(line) = line {
-                    line.finish();
-                }
-                outcome
+                    outcome
+                })
             })
         });
         signals.finish(py)?;

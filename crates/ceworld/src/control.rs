@@ -31,3 +31,34 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     }
     builder.build().map_err(|e| Error::invalid("threads", e.to_string()))
 }
+
+/// Runs `f`, turning a panic in it (or in a rayon task it waits for) into [`Error::Internal`].
+pub fn catch_panics<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".into());
+        Err(Error::Internal(message))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rayon::prelude::*;
+
+    #[test]
+    fn a_panic_in_a_rayon_task_becomes_an_internal_error() {
+        let pool = thread_pool(Some(2)).unwrap();
+        let r: Result<u64> = catch_panics(|| {
+            Ok(pool
+                .install(|| (0..1000u64).into_par_iter().map(|k| if k == 777 { panic!("task {k}") } else { k }).sum()))
+        });
+        let e = r.unwrap_err();
+        assert!(matches!(&e, Error::Internal(m) if m == "task 777"), "{e}");
+        assert!(e.to_string().starts_with("internal error"));
+        assert_eq!(catch_panics(|| Ok(3)).unwrap(), 3);
+    }
+}

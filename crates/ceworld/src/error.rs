@@ -49,6 +49,10 @@ pub enum Error {
         /// Bytes available.
         available: u64,
     },
+    /// A bug: a panic inside the engine (in any thread of a computation), caught and reported
+    /// instead of aborting the process. Please report it with the message.
+    #[error("internal error (a bug, please report it): {0}")]
+    Internal(String),
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -32,7 +32,7 @@ pub use ce::optimize::{
     CeConfig, CeResult, DEFAULT_LEVELS, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE,
     optimize,
 };
-pub use control::{Flow, thread_pool};
+pub use control::{Flow, catch_panics, thread_pool};
 pub use error::{Error, Result};
 pub use evaluate::{Evaluation, evaluate};
 pub use policy::file::PolicyFile;

@@ -392,7 +392,11 @@ fn run() -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    match run() {
+    match ceworld::catch_panics(run) {
+        Err(e @ Error::Internal(_)) => {
+            eprintln!("ceworld: {e}");
+            ExitCode::from(70)
+        }
         // A run stopped by a signal saved what it had: exit with 128 + the signal.
         Ok(()) => stop::exit_code().map_or(ExitCode::SUCCESS, ExitCode::from),
         Err(e) => {
