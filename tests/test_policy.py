@@ -260,3 +260,20 @@ def test_unknown_keys_are_skipped_however_large(tmp_path, case1) -> None:
         cehmm.Policy.from_json("[1, 2]")
     with pytest.raises(cehmm.PolicyFormatError, match="not JSON"):
         cehmm.Policy.from_json('{"format": ')
+
+
+def test_a_policy_file_with_an_invalid_world_is_refused_when_loaded(tmp_path, case1) -> None:
+    doc = json.loads(cehmm.Policy.uniform(case1, [2]).to_json())
+    for world, named in [
+        ({**doc["world"], "speed": 3}, 'unknown parameter "speed"'),
+        ({**doc["world"], "case": "3"}, "case"),
+        ({**doc["world"], "name": "cart-pole"}, "cart-pole"),
+        ({"case": 1}, "world.name"),
+    ]:
+        path = tmp_path / "w.json"
+        path.write_text(json.dumps({**doc, "world": world}))
+        with pytest.raises(cehmm.PolicyFormatError, match=named):
+            cehmm.Policy.load(path)
+    # A policy without a world still loads (its world is given when it is used).
+    path.write_text(json.dumps({**doc, "world": {}}))
+    assert cehmm.Policy.load(path).world == {}

@@ -152,9 +152,14 @@ impl PolicyFile {
             }
         }
         let policy = Hhmm::from_flat(layout, probs)?;
+        let world = obj.get("world").cloned().unwrap_or(Value::Object(Map::new()));
+        if world.as_object().is_none_or(|w| !w.is_empty()) {
+            crate::world::registry::AnyWorld::check_description(&world)
+                .map_err(|e| Error::format(format!("world: {e}")))?;
+        }
         Ok(PolicyFile {
             policy,
-            world: obj.get("world").cloned().unwrap_or(Value::Object(Map::new())),
+            world,
             provenance: obj.get("provenance").cloned().unwrap_or(Value::Object(Map::new())),
         })
     }

@@ -87,19 +87,14 @@ impl AnyWorld {
     /// The world `name` with its defaults overridden by `params` (an unknown key is an error).
     pub fn with_params(name: &str, params: &Map<String, Value>) -> Result<AnyWorld> {
         let entry = entry(name)?;
-        let mut all = (entry.defaults)();
-        for (key, value) in params {
-            if !all.contains_key(key) {
-                let known: Vec<&String> = all.keys().collect();
-                return Err(Error::invalid(
-                    "world",
-                    format!("{name}: unknown parameter {key:?} (expected one of {known:?})"),
-                ));
-            }
-            check_kind(&format!("{name}.{key}"), &all[key], value)?;
-            all.insert(key.clone(), value.clone());
-        }
-        (entry.build)(&all)
+        (entry.build)(&complete(entry, params)?)
+    }
+
+    /// Checks a policy file's `"world"` object without building the world (which may read a
+    /// model file): a registered name, known parameters of the right kinds.
+    pub fn check_description(value: &Value) -> Result<()> {
+        let (name, params) = described(value)?;
+        complete(entry(name)?, &params).map(|_| ())
     }
 
     /// The world's name, as in policy files and on the command line.
@@ -113,14 +108,7 @@ impl AnyWorld {
     /// The world of a policy file's `"world"` object: its `"name"` and its parameters (missing
     /// ones take their defaults; unknown ones are an error).
     pub fn from_json(value: &Value) -> Result<AnyWorld> {
-        let Some(map) = value.as_object() else {
-            return Err(Error::invalid("world", format!("{value} (expected an object with a \"name\")")));
-        };
-        let Some(name) = map.get("name").and_then(Value::as_str) else {
-            return Err(Error::invalid("world.name", "missing (expected the world's name, e.g. \"target-tracking\")"));
-        };
-        let mut params = map.clone();
-        params.remove("name");
+        let (name, params) = described(value)?;
         Self::with_params(name, &params)
     }
 
@@ -140,6 +128,37 @@ macro_rules! with_world {
             $crate::world::registry::AnyWorld::Pomdp($w) => $body,
         }
     };
+}
+
+/// The name and the parameters of a world's JSON object.
+fn described(value: &Value) -> Result<(&str, Map<String, Value>)> {
+    let Some(map) = value.as_object() else {
+        return Err(Error::invalid("world", format!("{value} (expected an object with a \"name\")")));
+    };
+    let Some(name) = map.get("name").and_then(Value::as_str) else {
+        return Err(Error::invalid("world.name", "missing (expected the world's name, e.g. \"target-tracking\")"));
+    };
+    let mut params = map.clone();
+    params.remove("name");
+    Ok((name, params))
+}
+
+/// Every parameter of `entry`'s world: its defaults overridden by `params`, each checked to be
+/// known and of its default's kind.
+fn complete(entry: &Entry, params: &Map<String, Value>) -> Result<Map<String, Value>> {
+    let mut all = (entry.defaults)();
+    for (key, value) in params {
+        if !all.contains_key(key) {
+            let known: Vec<&String> = all.keys().collect();
+            return Err(Error::invalid(
+                "world",
+                format!("{}: unknown parameter {key:?} (expected one of {known:?})", entry.name),
+            ));
+        }
+        check_kind(&format!("{}.{key}", entry.name), &all[key], value)?;
+        all.insert(key.clone(), value.clone());
+    }
+    Ok(all)
 }
 
 /// What kind of JSON value `value` is, as a user would say it.
