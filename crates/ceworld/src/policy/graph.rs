@@ -166,15 +166,15 @@ impl Graph {
     pub fn describe(&self, decisions: &[String], observations: &[String]) -> String {
         let mut text = String::from("initial:");
         for &(k, p) in &self.initial {
-            let _ = write!(text, " node {k} ({p:.3})");
+            let _ = write!(text, " node {k} ({})", probability(p));
         }
         text.push('\n');
         for (k, node) in self.nodes.iter().enumerate() {
             let laws: Vec<String> =
-                node.decision.iter().map(|&(d, p)| format!("{} {p:.3}", name(decisions, d))).collect();
+                node.decision.iter().map(|&(d, p)| format!("{} {}", name(decisions, d), probability(p))).collect();
             let _ = writeln!(text, "node {k} (memory {:?}): {}", node.memory, laws.join(", "));
             for (y, law) in node.next.iter().enumerate() {
-                let next: Vec<String> = law.iter().map(|&(n, p)| format!("node {n} ({p:.3})")).collect();
+                let next: Vec<String> = law.iter().map(|&(n, p)| format!("node {n} ({})", probability(p))).collect();
                 let _ = writeln!(text, "  on {} -> {}", name(observations, y), next.join(", "));
             }
         }
@@ -196,6 +196,11 @@ impl Graph {
             .collect();
         json!({"format": "cehmm-policy-graph", "initial": self.initial, "nodes": nodes})
     }
+}
+
+/// `0.250`, or `2.1e-5` for what three decimals would show as zero.
+fn probability(p: f64) -> String {
+    if p < 0.0005 { format!("{p:.1e}") } else { format!("{p:.3}") }
 }
 
 fn positive(law: impl Iterator<Item = (usize, f64)>) -> Vec<(usize, f64)> {
