@@ -40,7 +40,7 @@ struct Kernel<'a> {
     carried: Vec<usize>,
     /// `K`: the number of carried memory values.
     size: usize,
-    /// Cache of the non-first rows, index `y · K + k`.
+    /// Cache of the laws, index `(first · Y + y) · K + k`: each is computed once per run.
     rows: Vec<Option<Vec<(u32, u32, f64)>>>,
 }
 
@@ -49,7 +49,7 @@ impl<'a> Kernel<'a> {
         let levels = policy.levels();
         let carried = levels[..levels.len() - 1].to_vec();
         let size = carried.iter().product();
-        Kernel { policy, carried, size, rows: vec![None; n_obs * size] }
+        Kernel { policy, carried, size, rows: vec![None; 2 * n_obs * size] }
     }
 
     /// The law of `(k', d)` after observation `y` with carried memory `k` (`first`: `t = 1`).
@@ -124,18 +124,11 @@ fn recurse(world: &PomdpWorld, policy: &Hhmm, steps: Option<usize>, tolerance: f
                     if p == 0.0 {
                         continue;
                     }
-                    let fresh;
-                    let law = if first {
-                        fresh = kernel.law(y, k, true);
-                        &fresh
-                    } else {
-                        let i = y * k_size + k;
-                        if kernel.rows[i].is_none() {
-                            kernel.rows[i] = Some(kernel.law(y, k, false));
-                        }
-                        kernel.rows[i].as_ref().expect("just filled")
-                    };
-                    for &(k2, d, q) in law {
+                    let i = (usize::from(first) * y1 + y) * k_size + k;
+                    if kernel.rows[i].is_none() {
+                        kernel.rows[i] = Some(kernel.law(y, k, first));
+                    }
+                    for &(k2, d, q) in kernel.rows[i].as_ref().expect("just filled") {
                         mass[(s * n_a + d as usize) * k_size + k2 as usize] += p * q;
                     }
                 }

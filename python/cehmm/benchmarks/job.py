@@ -44,12 +44,12 @@ def _run(job: dict[str, Any]) -> dict[str, Any]:
     infinite = world.discount < 1.0
     exact = policy.evaluate_exact(infinite=True, tolerance=TOLERANCE) if infinite else policy.evaluate_exact()
     exact_seconds = time.perf_counter() - start
-    try:
-        policy.graph(form="pg")
-        deterministic = True
-    except cehmm.InvalidArgumentError:
-        deterministic = False
-    nodes = len(policy.graph(form="json")["nodes"])
+    graph = policy.graph(form="json")
+    # Deterministic (exportable as .pg): one initial node, one decision and one next node each.
+    deterministic = len(graph["initial"]) == 1 and all(
+        len(node["decision"]) == 1 and all(len(law) == 1 for law in node["next"].values()) for node in graph["nodes"]
+    )
+    nodes = len(graph["nodes"])
     return {
         "record": "job",
         "file": job["file"],

@@ -140,16 +140,7 @@ impl PomdpWorld {
         {
             return Err(Error::invalid("pomdp.discount", format!("{g} (expected 0 < discount <= 1)")));
         }
-        let path = Path::new(&params.file);
-        let io = |source| Error::Io { path: path.to_path_buf(), source };
-        let size = std::fs::metadata(path).map_err(io)?.len();
-        if size > MAX_FILE_BYTES {
-            return Err(Error::invalid(
-                "pomdp.file",
-                format!("{} has {size} bytes (at most {MAX_FILE_BYTES})", params.file),
-            ));
-        }
-        let bytes = std::fs::read(path).map_err(io)?;
+        let bytes = crate::files::read_limited(Path::new(&params.file), MAX_FILE_BYTES, "pomdp.file")?;
         let digest = sha256_hex(&bytes);
         if let Some(expected) = &params.sha256
             && *expected != digest
