@@ -164,6 +164,7 @@ def test_horizon_and_notes():
 def test_controllers_by_name():
     assert list(benchmarks.select_controllers(["2 nodes,1 NODE"])) == ["1 node", "2 nodes"]
     assert list(benchmarks.select_controllers(None)) == list(benchmarks.CONTROLLERS)
+    assert list(benchmarks.select_controllers(["8 nodes, slow h0", "1 node"])) == ["1 node", "8 nodes, slow h0"]
     with pytest.raises(SystemExit):
         benchmarks.select_controllers(["3 nodes"])
 

@@ -36,6 +36,7 @@ from ._core import (
     PolicyMismatchError,
     Rollout,
 )
+from .controller import ControllerResult, optimize_controller
 from .optimizer import OptimizeResult, optimize
 from .policy import Policy
 from .pomdp import PomdpWorld
@@ -50,6 +51,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree wi
 
 __all__ = [
     "CehmmError",
+    "ControllerResult",
     "Evaluation",
     "ExactValue",
     "InternalError",
@@ -68,5 +70,6 @@ __all__ = [
     "__version__",
     "evaluate_windows",
     "optimize",
+    "optimize_controller",
     "qlearning",
 ]

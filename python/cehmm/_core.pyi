@@ -26,11 +26,14 @@ __all__ = [
     "WindowEvaluation",
     "OptimizeOutcome",
     "optimize",
+    "ControllerOutcome",
+    "optimize_controller",
     "QLearner",
     "evaluate_policy_windows",
     "epsilon",
     "ENGINE_VERSION",
     "CE_DEFAULTS",
+    "CONTROLLER_DEFAULTS",
     "INIT_CHOICES",
     "MEMORY_UPDATES",
     "TIES",
@@ -45,6 +48,7 @@ __all__ = [
 ENGINE_VERSION: str
 #: ``CeConfig::default()``: samples, rho, smoothing, patience, seed, eval_episodes, memory_update, restarts.
 CE_DEFAULTS: dict[str, Any]
+CONTROLLER_DEFAULTS: dict[str, Any]
 INIT_CHOICES: list[str]
 MEMORY_UPDATES: list[str]
 TIES: list[str]
@@ -267,7 +271,50 @@ def optimize(
     progress: bool,
     memory_update: str,
     restarts: int,
+    checkpoint: str | os.PathLike[str] | None = None,
+    checkpoint_every: float | None = None,
+    resume: bool | None = None,
 ) -> OptimizeOutcome: ...
+
+@final
+class ControllerOutcome:
+    """``ceworld::ce::controller::ControllerOutcome`` with its policy file (wrapped by ``cehmm.ControllerResult``)."""
+
+    @property
+    def policy(self) -> Policy: ...
+    @property
+    def value(self) -> float: ...
+    @property
+    def history(self) -> HistoryDict: ...
+    @property
+    def stop_reason(self) -> str: ...
+    @property
+    def interrupted(self) -> bool: ...
+    @property
+    def best_iteration(self) -> int: ...
+    @property
+    def restart(self) -> int: ...
+    @property
+    def run_values(self) -> list[float]: ...
+    @property
+    def seconds(self) -> float: ...
+
+def optimize_controller(
+    world: World,
+    *,
+    nodes: int,
+    samples: int,
+    rho: float,
+    smoothing: float,
+    patience: int,
+    max_iterations: int | None,
+    time_limit: float | None,
+    tolerance: float,
+    seed: int,
+    threads: int | None,
+    restarts: int,
+    progress: bool,
+) -> ControllerOutcome: ...
 def epsilon(t: int) -> float: ...
 def evaluate_policy_windows(
     policy: Policy,

@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+import signal
+import threading
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Union
 
@@ -102,6 +106,9 @@ def optimize(
     init: Init = None,
     memory_update: str = CE_DEFAULTS["memory_update"],
     restarts: int = CE_DEFAULTS["restarts"],
+    checkpoint: str | os.PathLike[str] | None = None,
+    checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
+    resume: bool = False,
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (model §3).
 
@@ -141,13 +148,25 @@ def optimize(
         restarts: independent runs (the first with ``seed``, the others with seeds derived from
             it); the one whose policy scores best on ``eval_episodes`` selection episodes is
             returned, and evaluated on other, fresh episodes. ``time_limit`` covers them all.
+        checkpoint: a file where the whole state of the run (tables, iteration, history, best
+            so far, finished restarts) is saved every ``checkpoint_every`` seconds and whenever
+            the run stops (the end, Ctrl-C), through a temporary file renamed over it.
+        checkpoint_every: seconds between two checkpoints.
+        resume: continue from ``checkpoint`` when that file exists (else start afresh). With
+            the same world and settings (stopping rules, ``time_limit`` and ``threads`` may
+            differ), the final policy is the one an uninterrupted run gives, bit for bit.
+            With a checkpoint, a SIGTERM (a scheduler's) that finds its default action stops the
+            run like Ctrl-C, saves the checkpoint, then ends the process as SIGTERM asks (status
+            143 / -15): rerunning the same call with ``resume=True`` continues it.
 
     Returns:
         an :class:`OptimizeResult`.
 
     Raises:
         InvalidArgumentError: an argument out of its domain; the message names it and its value.
-        PolicyMismatchError: ``init`` does not fit ``world``.
+        PolicyMismatchError: ``init`` does not fit ``world``, or ``checkpoint`` was made with
+            another world or other settings (the message names the first that differs).
+        PolicyFormatError: ``checkpoint`` is not a valid checkpoint file.
 
     Example:
         >>> world = TargetTracking(case=1)
@@ -155,25 +174,55 @@ def optimize(
         >>> result.iterations, len(result.history["mean"])
         (5, 5)
     """
-    raw = _core.optimize(
-        core_world(world),
-        _initial(world, levels, init, seed)._core,
-        samples=samples,
-        rho=rho,
-        smoothing=smoothing,
-        decision_smoothing=decision_smoothing,
-        patience=patience,
-        max_iterations=max_iterations,
-        time_limit=time_limit,
-        target=target,
-        seed=seed,
-        threads=threads,
-        eval_episodes=eval_episodes,
-        progress=progress,
-        memory_update=memory_update,
-        restarts=restarts,
-    )
+    with _sigterm_interrupts(checkpoint is not None) as terminated:
+        raw = _core.optimize(
+            core_world(world),
+            _initial(world, levels, init, seed)._core,
+            samples=samples,
+            rho=rho,
+            smoothing=smoothing,
+            decision_smoothing=decision_smoothing,
+            patience=patience,
+            max_iterations=max_iterations,
+            time_limit=time_limit,
+            target=target,
+            seed=seed,
+            threads=threads,
+            eval_episodes=eval_episodes,
+            progress=progress,
+            memory_update=memory_update,
+            restarts=restarts,
+            checkpoint=checkpoint,
+            checkpoint_every=checkpoint_every,
+            resume=resume,
+        )
+    if terminated:
+        # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)
     return OptimizeResult._from_core(raw)
+
+
+@contextmanager
+def _sigterm_interrupts(checkpointed: bool) -> Iterator[list[bool]]:
+    """With a checkpoint, in the main thread, and while SIGTERM has its default action: SIGTERM
+    stops the run like Ctrl-C (the checkpoint is saved) and the list yielded becomes ``[True]``,
+    so that the caller can then end the process as SIGTERM asked."""
+    terminated: list[bool] = []
+    usable = checkpointed and threading.current_thread() is threading.main_thread()
+    if not usable or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield terminated
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        terminated.append(True)
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, handler)
+    try:
+        yield terminated
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _initial(world: World, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:

@@ -12,7 +12,7 @@ fn epsilon(t: &Bound<'_, PyAny>) -> PyResult<f64> {
     Ok(ceworld::qlearn::epsilon(crate::convert::seed("t", t)?))
 }
 
-/// Adds `epsilon`, `CE_DEFAULTS`, `INIT_CHOICES`, `MEMORY_UPDATES`, `TIES`, `DEFAULT_LEVELS`, `WEAK_PATIENCE`, `STRONG_PATIENCE`, `WINDOW_DEFAULTS`,
+/// Adds `epsilon`, `CE_DEFAULTS`, `CONTROLLER_DEFAULTS`, `INIT_CHOICES`, `MEMORY_UPDATES`, `TIES`, `DEFAULT_LEVELS`, `WEAK_PATIENCE`, `STRONG_PATIENCE`, `WINDOW_DEFAULTS`,
 /// `Q_DEFAULTS` and `PAPER_REFERENCE` to the module.
 pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -27,7 +27,19 @@ pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     defaults.set_item("eval_episodes", ce.eval_episodes)?;
     defaults.set_item("memory_update", ce.memory_update.as_str())?;
     defaults.set_item("restarts", ce.restarts)?;
+    defaults.set_item("checkpoint_every", ceworld::ce::checkpoint::DEFAULT_EVERY)?;
     m.add("CE_DEFAULTS", defaults)?;
+    let c = ceworld::ControllerConfig::default();
+    let controller = PyDict::new(py);
+    controller.set_item("nodes", c.nodes)?;
+    controller.set_item("samples", c.samples)?;
+    controller.set_item("rho", c.rho)?;
+    controller.set_item("smoothing", c.smoothing)?;
+    controller.set_item("patience", c.patience)?;
+    controller.set_item("tolerance", c.tolerance)?;
+    controller.set_item("seed", c.seed)?;
+    controller.set_item("restarts", c.restarts)?;
+    m.add("CONTROLLER_DEFAULTS", controller)?;
     m.add("INIT_CHOICES", ceworld::Init::ALL.map(ceworld::Init::as_str).to_vec())?;
     m.add("MEMORY_UPDATES", ceworld::MemoryUpdate::ALL.map(ceworld::MemoryUpdate::as_str).to_vec())?;
     m.add("TIES", ceworld::Ties::ALL.map(ceworld::Ties::as_str).to_vec())?;

@@ -3,7 +3,8 @@
 //! The bindings only translate: Python values into the core's types (`convert`), core errors
 //! into exceptions (`errors`), core results into frozen classes (`results`); every rule, default
 //! and check is the core's. One module per concept: worlds through the core's registry
-//! (`world`), policies (`policy`), the CE method (`optimize`), Q-learning and the window
+//! (`world`), policies (`policy`), the CE method (`optimize`) and its search over deterministic
+//! controllers of tabular worlds (`controller`), Q-learning and the window
 //! evaluation (`qlearn`), the core's defaults and constants (`defaults`). Optimisation,
 //! evaluation and rollouts run detached from the interpreter (`py.detach`); long runs check for
 //! Ctrl-C between iterations and then return what they have, marked interrupted. The documented
@@ -13,6 +14,7 @@
 #![allow(clippy::needless_pass_by_value)] // pyo3 extracts arguments by value
 #![allow(clippy::redundant_closure_for_method_calls)] // `Python::attach` needs a closure, not a path
 
+mod controller;
 mod convert;
 mod defaults;
 mod errors;
@@ -28,6 +30,8 @@ use pyo3::prelude::*;
 /// `cehmm._core`: the compiled engine; use the `cehmm` package instead.
 #[pymodule(gil_used = false)]
 mod _core {
+    #[pymodule_export]
+    use super::controller::{PyControllerOutcome, optimize_controller};
     #[pymodule_export]
     use super::errors::{
         CehmmError, InternalError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError,

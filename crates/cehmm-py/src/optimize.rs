@@ -6,7 +6,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use ceworld::progress::{CeProgress, LiveLine};
-use ceworld::{CeConfig, CeResult, IterationRecord, PolicyFile, with_world};
+use std::path::PathBuf;
+
+use ceworld::{CeConfig, CeResult, Checkpointing, IterationRecord, PolicyFile, with_world};
 
 use crate::convert::{count, flag, optional_count, optional_real, real, seed, text};
 use crate::errors::OrRaise;
@@ -90,12 +92,12 @@ impl PyOptimizeOutcome {
     }
 }
 
-/// Runs the cross-entropy method (model §3) from `initial`; Ctrl-C stops it between iterations
-/// and the result comes back marked interrupted.
+/// Runs the cross-entropy method (model §3) from `initial`, checkpointed when `checkpoint` is
+/// given; Ctrl-C stops it between iterations and the result comes back marked interrupted.
 #[pyfunction]
 #[pyo3(signature = (
     world, initial, *, samples, rho, smoothing, decision_smoothing, patience, max_iterations, time_limit, target, seed, threads,
-    eval_episodes, progress, memory_update, restarts
+    eval_episodes, progress, memory_update, restarts, checkpoint=None, checkpoint_every=None, resume=None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn optimize(
@@ -116,6 +118,9 @@ pub fn optimize(
     progress: &Bound<'_, PyAny>,
     memory_update: &Bound<'_, PyAny>,
     restarts: &Bound<'_, PyAny>,
+    checkpoint: Option<PathBuf>,
+    checkpoint_every: Option<&Bound<'_, PyAny>>,
+    resume: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyOptimizeOutcome> {
     let config = CeConfig {
         samples: count("samples", samples)?,
@@ -133,13 +138,19 @@ pub fn optimize(
         restarts: count("restarts", restarts)?,
     };
     let progress = flag("progress", progress)?;
+    let every = optional_real("checkpoint_every", checkpoint_every)?.unwrap_or(ceworld::ce::checkpoint::DEFAULT_EVERY);
+    let resume = resume.map(|r| flag("resume", r)).transpose()?.unwrap_or(false);
+    let checkpointing = checkpoint.map(|path| Checkpointing { path, every, resume });
+    if checkpointing.is_none() && resume {
+        return Err(ceworld::Error::invalid("resume", "True without a checkpoint (give checkpoint=PATH)")).or_raise();
+    }
     let (world, initial) = (&world.world, initial.file.policy.clone());
     let mut signals = Signals::default();
     let outcome = py.detach(|| {
         ceworld::catch_panics(|| {
             with_world!(world, w => {
                 let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
-                let result = ceworld::optimize(w, initial, &config, |record| {
+                let result = ceworld::optimize_with(w, initial, &config, checkpointing.as_ref(), |record| {
                     if let Some(line) = &mut line {
                         line.update(record);
                     }

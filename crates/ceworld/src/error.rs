@@ -26,6 +26,10 @@ pub enum Error {
     /// A policy whose shapes do not fit the world it is used with.
     #[error("policy does not match the world: {0}")]
     Mismatch(String),
+    /// A checkpoint made with another world or other settings than the run that would resume
+    /// from it; the message names the first that differs.
+    #[error("the checkpoint does not match this run: {0}")]
+    CheckpointMismatch(String),
     /// A policy file that is not valid cehmm-policy JSON.
     #[error("invalid policy{}: {message}", path.as_ref().map(|p| format!(" file {}", p.display())).unwrap_or_default())]
     PolicyFormat {

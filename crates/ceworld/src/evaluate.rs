@@ -10,7 +10,7 @@ use crate::rng::{Purpose, stream};
 use crate::world::World;
 
 /// Summary of the reward over `episodes` fresh episodes.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct Evaluation {
     /// Number of episodes.
     pub episodes: usize,

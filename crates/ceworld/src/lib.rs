@@ -27,11 +27,11 @@ pub mod qlearn;
 pub mod rng;
 pub mod world;
 
+pub use ce::checkpoint::{CeCheckpoint, Checkpointing};
+pub use ce::config::{CeConfig, DEFAULT_LEVELS, MemoryUpdate, STRONG_PATIENCE, WEAK_PATIENCE};
+pub use ce::controller::{ControllerConfig, ControllerOutcome, optimize_controller};
 pub use ce::init::{Init, clock_policy, random_policy, uniform_policy};
-pub use ce::optimize::{
-    CeConfig, CeResult, DEFAULT_LEVELS, IterationRecord, MemoryUpdate, STRONG_PATIENCE, StopReason, WEAK_PATIENCE,
-    optimize,
-};
+pub use ce::optimize::{CeResult, IterationRecord, StopReason, optimize, optimize_with};
 pub use control::{Flow, catch_panics, thread_pool};
 pub use error::{Error, Result};
 pub use evaluate::{Evaluation, evaluate};

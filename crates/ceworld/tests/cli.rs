@@ -59,6 +59,32 @@ fn optimize_then_evaluate() {
 }
 
 #[test]
+fn a_controller_search_saves_a_policy_whose_exact_value_it_reports() {
+    let path = temp("controller.json");
+    let p = path.to_str().unwrap();
+    let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+    let args = ["controller", "--pomdp", &tiger, "--nodes", "3", "--samples", "200", "--max-iterations", "4"];
+    let out = ceworld(&[&args[..], &["--restarts", "2", "--out", p, "--quiet"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("best of 2 runs"), "{stdout}");
+    let reported: f64 =
+        stdout.split("infinite-horizon value ").nth(1).unwrap().split(';').next().unwrap().parse().unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(doc["levels"], serde_json::json!([3, 3]));
+    assert_eq!(doc["provenance"]["method"], "controller-ce");
+    let out = ceworld(&["evaluate", p, "--exact"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    let exact: f64 = stdout.split("(discount 0.95): ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    // Both within their tolerance (1e-6) of the true value.
+    assert!((exact - reported).abs() < 3e-6, "{reported} / {stdout}");
+    // Only tabular worlds.
+    fails_with(&["controller", "--case", "1"], &["--pomdp", "tabular"]);
+    fails_with(&[&args[..], &["--rho", "2"]].concat(), &["rho", "2"]);
+}
+
+#[test]
 fn optimum_of_case_1() {
     let out = ceworld(&["optimum", "--case", "1"]);
     assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "86");
@@ -148,4 +174,49 @@ fn sigterm_saves_the_best_policy_so_far_and_exits_143() {
     assert!(stdout.starts_with("interrupted:"), "{stdout}");
     let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(doc["provenance"]["interrupted"], true);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_then_resume_gives_the_uninterrupted_policy() {
+    let (reference, resumed, checkpoint) = (temp("reference.json"), temp("resumed.json"), temp("run.ckpt"));
+    let _ = std::fs::remove_file(&checkpoint);
+    let run = |out: &std::path::Path| {
+        [
+            "optimize",
+            "--case",
+            "3",
+            "--levels",
+            "8,2",
+            "--samples",
+            "400",
+            "--max-iterations",
+            "40",
+            "--eval-episodes",
+            "200",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let args = run(&reference);
+    let out = ceworld(&[&args.iter().map(String::as_str).collect::<Vec<_>>()[..], &["--quiet"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut args = run(&resumed);
+    args.extend(["--checkpoint", checkpoint.to_str().unwrap(), "--resume"].map(String::from));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let (status, _, stderr) = common::signal_when_ready("-TERM", &args);
+    assert_eq!(status.code(), Some(143), "{stderr}");
+    assert!(checkpoint.exists(), "the checkpoint is saved on SIGTERM");
+    let out = ceworld(&[&args[..], &["--quiet"]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let tables = |p: &std::path::Path| {
+        let mut doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+        doc.as_object_mut().unwrap().remove("provenance");
+        doc
+    };
+    assert_eq!(tables(&resumed), tables(&reference));
+    fails_with(&["optimize", "--resume"], &["--checkpoint"]);
+    fails_with(&[&args[..], &["--seed", "3"]].concat(), &["checkpoint", "seed"]);
 }

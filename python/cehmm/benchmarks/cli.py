@@ -38,7 +38,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME",
         help=f"controllers, by name or comma-separated (default: all of {', '.join(config.CONTROLLERS)})",
     )
-    p.add_argument("--time-limit", type=float, default=None, help=f"CE seconds per job (default {config.TIME_LIMIT:g})")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        default=None,
+        help=f"CE seconds per job (default {config.TIME_LIMIT:g}; a controller search gets "
+        f"{config.CONTROLLER_TIME_FACTOR} times as long)",
+    )
     p.add_argument(
         "--quick",
         action="store_true",
@@ -68,12 +74,27 @@ def select_controllers(names: Sequence[str] | None) -> dict[str, list[int]]:
     """The controllers named (``"1 node"`` or ``"1 node,2 nodes"``; case-insensitive), in CONTROLLERS order."""
     if not names:
         return dict(config.CONTROLLERS)
-    wanted = {n.strip().lower() for item in names for n in item.split(",") if n.strip()}
     known = {name.lower(): name for name in config.CONTROLLERS}
+    # A name may hold a comma ("8 nodes, slow h0"): an item that is a name is taken whole.
+    wanted = {
+        n.strip().lower()
+        for item in names
+        for n in ([item] if item.strip().lower() in known else item.split(","))
+        if n.strip()
+    }
     unknown = sorted(wanted - set(known))
     if unknown:
         raise SystemExit(f"{PROG}: error: unknown controller(s) {unknown}; known: {', '.join(config.CONTROLLERS)}")
     return {name: levels for name, levels in config.CONTROLLERS.items() if name.lower() in wanted}
+
+
+def _job_settings(settings: dict[str, Any], controller: str) -> dict[str, Any]:
+    """The settings of one job: the common ones with the controller's own; a controller search gets
+    CONTROLLER_TIME_FACTOR times the time limit."""
+    own = config.CONTROLLER_SETTINGS.get(controller, {})
+    if own.get("method") == "controller":
+        return {**settings, **own, "time_limit": settings["time_limit"] * config.CONTROLLER_TIME_FACTOR}
+    return {**settings, **own}
 
 
 def _paths(out: Path) -> tuple[Path, Path]:
@@ -151,7 +172,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "levels": levels,
             "horizon": f["horizon"],
             "threads": None if n_jobs == 1 else 1,
-            "settings": {**settings, **config.CONTROLLER_SETTINGS.get(name, {})},
+            "settings": _job_settings(settings, name),
             "meta": meta,
         }
         for f in readable

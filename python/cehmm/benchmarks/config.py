@@ -16,11 +16,18 @@ CONTROLLERS: dict[str, list[int]] = {
     "8 nodes": [8, 8],
     "two-level": [4, 2, 2],
     "8 nodes, slow h0": [8, 8],
+    "8 nodes, controller CE": [8, 8],
 }
 
 #: Settings that differ for some controllers: "slow h0" refits the decision table at 0.02 while the
 #: memory tables keep SMOOTHING, so that the memory takes shape before the decisions settle (model §3).
-CONTROLLER_SETTINGS: dict[str, dict[str, Any]] = {"8 nodes, slow h0": {"decision_smoothing": 0.02}}
+#: "controller CE" is the search over deterministic controllers ranked by exact values (model §8,
+#: :func:`cehmm.optimize_controller` with its own defaults), given CONTROLLER_TIME_FACTOR times the time limit.
+CONTROLLER_SETTINGS: dict[str, dict[str, Any]] = {
+    "8 nodes, slow h0": {"decision_smoothing": 0.02},
+    "8 nodes, controller CE": {"method": "controller"},
+}
+CONTROLLER_TIME_FACTOR = 30
 
 #: The settings of every job (``default_settings``; each one a flag of the command).
 SAMPLES = 2000

@@ -1,5 +1,5 @@
-"""One job, in this process or in a worker: a controller learned by CE on one file, then its exact value and
-its shape as a finite-state controller."""
+"""One job, in this process or in a worker: a controller learned on one file (by CE on episodes, or by the
+CE search over deterministic controllers), then its exact value and its shape as a finite-state controller."""
 
 from __future__ import annotations
 
@@ -36,10 +36,26 @@ def _run(job: dict[str, Any]) -> dict[str, Any]:
     settings = dict(job["settings"])
     reward = settings.pop("reward")
     world = cehmm.PomdpWorld.from_file(job["path"], horizon=job["horizon"], reward=reward)
-    result = cehmm.optimize(world, levels=job["levels"], threads=job["threads"], progress=False, **settings)
-    if result.interrupted:
-        return {"interrupted": True}
-    policy = result.policy
+    if settings.pop("method", None) == "controller":
+        searched = cehmm.optimize_controller(
+            world,
+            nodes=job["levels"][0],
+            seed=settings["seed"],
+            time_limit=settings["time_limit"],
+            threads=job["threads"],
+            progress=False,
+        )
+        if searched.interrupted:
+            return {"interrupted": True}
+        policy, seconds, stop_reason = searched.policy, searched.seconds, searched.stop_reason
+        iterations = len(searched.history["iteration"])
+        sampled = policy.evaluate(world, episodes=settings["eval_episodes"], seed=settings["seed"] + 1)
+    else:
+        result = cehmm.optimize(world, levels=job["levels"], threads=job["threads"], progress=False, **settings)
+        if result.interrupted:
+            return {"interrupted": True}
+        policy, seconds, stop_reason = result.policy, result.seconds, result.stop_reason
+        iterations, sampled = result.iterations, result.evaluation
     start = time.perf_counter()
     infinite = world.discount < 1.0
     exact = policy.evaluate_exact(infinite=True, tolerance=TOLERANCE) if infinite else policy.evaluate_exact()
@@ -62,17 +78,17 @@ def _run(job: dict[str, Any]) -> dict[str, Any]:
         "tail_bound": exact.tail_bound,
         "exact_steps": exact.steps,
         "exact_seconds": round(exact_seconds, 3),
-        "ce_seconds": round(result.seconds, 3),
-        "iterations": result.iterations,
-        "stop_reason": result.stop_reason,
-        "sampled_mean": result.evaluation.mean,
-        "sampled_std_error": result.evaluation.std_error,
+        "ce_seconds": round(seconds, 3),
+        "iterations": iterations,
+        "stop_reason": stop_reason,
+        "sampled_mean": sampled.mean,
+        "sampled_std_error": sampled.std_error,
         "deterministic": deterministic,
         "nodes": nodes,
         "threads": job["threads"] or (os.cpu_count() or 1),
-        "settings": job["settings"],
         "sha256": world.sha256,
         "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         **job["meta"],
+        "settings": job["settings"],  # this job's own (the meta's are the common ones)
         "version": cehmm.__version__,
     }

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from .config import CONTROLLERS
+from ..controller import CONTROLLER_DEFAULTS
+from .config import CONTROLLER_SETTINGS, CONTROLLER_TIME_FACTOR, CONTROLLERS
 from .summary import best_jobs, findings, ratio
 
 TITLE = "# Benchmarks: CE controllers on the Cassandra `.pomdp` files"
@@ -71,7 +72,7 @@ def _header(files: list[dict[str, Any]], jobs: dict[str, list[dict[str, Any]]], 
         f"smoothing={s['smoothing']}, patience={s['patience']}, init={s['init']!r}, seed={s['seed']}, "
         f"time_limit={s['time_limit']:g}, eval_episodes={s['eval_episodes']})` on "
         f"`PomdpWorld.from_file(file, horizon=H, reward={s['reward']!r})`. A k-node controller is levels "
-        "[k, k] (m_2[t] carries m_1[t-1]); [1] is a blind policy.",
+        "[k, k] (m_2[t] carries m_1[t-1]); [1] is a blind policy." + _controller_ce_text(meta),
         "",
         "**Horizon and value.** CE trains on episodes of H = min(200, ⌈log 0.05 / log γ⌉) steps (H = 20 for "
         "γ = 1). The value is exact, not sampled: for γ < 1 the learned controller's infinite-horizon discounted "
@@ -80,6 +81,21 @@ def _header(files: list[dict[str, Any]], jobs: dict[str, list[dict[str, Any]]], 
         "(\\* a renormalised copy); CE / LB is the best CE value over LB where LB > 0.",
         "",
     ]
+
+
+def _controller_ce_text(meta: dict[str, Any]) -> str:
+    """How the controller-CE jobs ran (none before that job existed)."""
+    names = [n for n in meta["controllers"] if CONTROLLER_SETTINGS.get(n, {}).get("method") == "controller"]
+    if not names:
+        return ""
+    d = CONTROLLER_DEFAULTS
+    limit = meta["settings"]["time_limit"] * CONTROLLER_TIME_FACTOR
+    return (
+        f" {', '.join(f'`{n}`' for n in names)} is instead `cehmm.optimize_controller(world, nodes=k, "
+        f"seed={meta['settings']['seed']}, time_limit={limit:g})` with its defaults (samples={d['samples']}, "
+        f"rho={d['rho']}, smoothing={d['smoothing']}, patience={d['patience']}): the cross-entropy method over "
+        "deterministic controllers, each ranked by its exact value (model §8); its CE s is that search."
+    )
 
 
 def _summary(files: list[dict[str, Any]], jobs: dict[str, list[dict[str, Any]]]) -> list[str]:

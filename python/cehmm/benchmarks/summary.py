@@ -97,6 +97,31 @@ def _memory_sentences(jobs: dict[str, list[dict[str, Any]]]) -> list[str]:
     return out
 
 
+def _method_sentences(jobs: dict[str, list[dict[str, Any]]]) -> list[str]:
+    """The search over deterministic controllers against the best controller learned from episodes."""
+    better, worse, compared = [], [], 0
+    for file, js in jobs.items():
+        searched = [j for j in js if j["settings"].get("method") == "controller"]
+        episodic = [j for j in js if j["settings"].get("method") != "controller"]
+        if not searched or not episodic:
+            continue
+        compared += 1
+        s, e = searched[0]["value"], max(j["value"] for j in episodic)
+        if s > e + MARGIN:
+            better.append(f"{file} ({e:.4f} → {s:.4f})")
+        elif s < e - MARGIN:
+            worse.append(f"{file} ({s:.4f} against {e:.4f})")
+    if not compared:
+        return []
+    text = (
+        f"The controller search (model §8) beats the best controller learned from episodes by more than "
+        f"{MARGIN:g} on {len(better)} of {compared} files"
+    )
+    text += f" ({_names(better)})" if better else ""
+    text += f" and scores more than {MARGIN:g} below it on {len(worse)}" + (f" ({_names(worse)})" if worse else "")
+    return [text + "."]
+
+
 def findings(files: list[dict[str, Any]], jobs: dict[str, list[dict[str, Any]]]) -> str:
     """The "what this shows" paragraph: counts, ratios and differences read off the records, nothing else."""
     every = [j for js in jobs.values() for j in js]
@@ -109,6 +134,7 @@ def findings(files: list[dict[str, Any]], jobs: dict[str, list[dict[str, Any]]])
     best = best_jobs(files, jobs)
     sentences += _sarsop_sentences(files, best)
     sentences += _memory_sentences(jobs)
+    sentences += _method_sentences(jobs)
     deterministic = sum(j["deterministic"] for j in every)
     stops = Counter(j["stop_reason"] for j in every)
     stop_text = ", ".join(f"{reason} {n}" for reason, n in sorted(stops.items()))

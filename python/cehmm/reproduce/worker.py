@@ -5,7 +5,6 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import signal
-import time
 from pathlib import Path
 from typing import Any
 
@@ -55,16 +54,27 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
     try:
         world = cehmm.TargetTracking(case=job["case"])
         kwargs = dict(job["kwargs"])
-        start = time.perf_counter()
-        result = cehmm.optimize(world, seed=job["seed"], threads=job["threads"], progress=job["progress"], **kwargs)
-        seconds = time.perf_counter() - start
-        if result.interrupted:
-            return {"interrupted": True}
         out_dir = Path(job["out_dir"])
         stem = job_stem(job["row"], job["settings"], job["seed"])
+        # A job cut mid-run (Ctrl-C, SIGTERM, a crash) continues from its checkpoint next time.
+        checkpoint = out_dir / "checkpoints" / f"{stem}.ckpt"
+        checkpoint.parent.mkdir(parents=True, exist_ok=True)
+        result = cehmm.optimize(
+            world,
+            seed=job["seed"],
+            threads=job["threads"],
+            progress=job["progress"],
+            checkpoint=checkpoint,
+            resume=True,
+            **kwargs,
+        )
+        seconds = result.seconds  # every session of the job together
+        if result.interrupted:
+            return {"interrupted": True}
         policy_path = Path("policies") / f"{stem}.json"
         (out_dir / "policies").mkdir(parents=True, exist_ok=True)
         result.policy.save(out_dir / policy_path)
+        checkpoint.unlink(missing_ok=True)  # the record written by the caller is the job's result now
     except KeyboardInterrupt:
         return {"interrupted": True}
     except BaseException as e:  # a pyo3 panic is a BaseException; reported by the parent, which goes on

@@ -1,6 +1,10 @@
 //! The cross-entropy method (model §3): episodes of world × policy, the counts of the elite, the
-//! forward–backward alternative for the memory, and the optimiser that iterates them.
+//! forward–backward alternative for the memory, and the optimiser that iterates them; and the
+//! same method over whole deterministic controllers of a tabular world (model §8).
 
+pub mod checkpoint;
+pub mod config;
+pub mod controller;
 pub mod counting;
 pub mod episode;
 pub mod init;

@@ -1,5 +1,6 @@
 //! `ceworld`: optimise, evaluate and inspect HHMM policies from the command line.
 
+mod controller;
 mod qlearn;
 mod stop;
 
@@ -13,7 +14,7 @@ use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
 
 use ceworld::thread_pool;
-use ceworld::{AnyWorld, CeConfig, Error, Flow, Init, PolicyFile, Result, World, evaluate, optimize};
+use ceworld::{AnyWorld, CeConfig, Error, Flow, Init, PolicyFile, Result, World, evaluate, optimize_with};
 
 /// Cross-entropic learning of hierarchical-HMM policies (Dambreville's method) for the
 /// target-tracking world of model §4.
@@ -28,9 +29,16 @@ struct Cli {
 enum Command {
     /// Optimise a policy by the cross-entropy method and save it as JSON (model §6).
     ///
-    /// Prints a live progress line; Ctrl-C stops between iterations and still saves the best
-    /// policy so far (marked "interrupted" in its provenance).
+    /// Prints a live progress line; Ctrl-C or SIGTERM stops between iterations and still saves
+    /// the best policy so far (marked "interrupted" in its provenance) and, with --checkpoint,
+    /// the run's state, from which --resume continues.
     Optimize(OptimizeArgs),
+    /// Search a deterministic finite-state controller of a tabular world (--pomdp FILE) by the
+    /// cross-entropy method over whole controllers, ranked by their exact values (model §8).
+    ///
+    /// Prints a live progress line; Ctrl-C stops between iterations and still saves the best
+    /// controller so far as a policy file (two levels [n, n], one-hot tables).
+    Controller(controller::ControllerArgs),
     /// Evaluate a saved policy on fresh episodes of the world stored in its file.
     Evaluate {
         /// The policy file (JSON, model §6).
@@ -185,9 +193,27 @@ struct OptimizeArgs {
     /// Where to save the best policy.
     #[arg(long, default_value = "policy.json", value_name = "FILE.json")]
     out: PathBuf,
+    #[command(flatten)]
+    checkpoint: CheckpointArgs,
     /// No progress line.
     #[arg(long, short)]
     quiet: bool,
+}
+
+/// Checkpoints of a long optimisation.
+#[derive(clap::Args)]
+struct CheckpointArgs {
+    /// Save the whole state of the run to this file every --checkpoint-every seconds and
+    /// whenever it stops (the end, Ctrl-C, SIGTERM); see --resume.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between two checkpoints.
+    #[arg(long, default_value_t = ceworld::ce::checkpoint::DEFAULT_EVERY, requires = "checkpoint")]
+    checkpoint_every: f64,
+    /// Continue from --checkpoint when that file exists (else start afresh), with the same
+    /// world and settings: the final policy is the one an uninterrupted run gives, bit for bit.
+    #[arg(long, requires = "checkpoint")]
+    resume: bool,
 }
 
 /// The world `name` of the registry with `--case` (target tracking's case) and every
@@ -277,7 +303,19 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     }
     let mut progress = (!args.quiet).then(|| CeProgress::new(config.patience, LiveLine::stderr()));
     let mut runs = 0;
-    let result = optimize(world, initial, &config, |r| {
+    let c = &args.checkpoint;
+    let checkpointing = c.checkpoint.as_ref().map(|path| ceworld::Checkpointing {
+        path: path.clone(),
+        every: c.checkpoint_every,
+        resume: c.resume,
+    });
+    if let Some(c) = &checkpointing {
+        c.validate()?;
+        if !args.quiet && c.resume && c.path.exists() {
+            eprintln!("ceworld: resuming from {}", c.path.display());
+        }
+    }
+    let result = optimize_with(world, initial, &config, checkpointing.as_ref(), |r| {
         if let Some(progress) = &mut progress {
             if r.iteration == 0 {
                 runs += 1;
@@ -318,6 +356,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
 fn run() -> Result<()> {
     match Cli::parse().command {
         Command::Optimize(args) => run_optimize(&args),
+        Command::Controller(args) => controller::run_controller(&args),
         Command::Evaluate { file, exact: true, tolerance, .. } => {
             let f = PolicyFile::load(&file)?;
             let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {

@@ -1,0 +1,212 @@
+//! The settings of the cross-entropy method (model §3) and their checks.
+
+use serde::{Deserialize, Serialize};
+
+use crate::control::check_threads;
+use crate::error::{Error, Result};
+use crate::evaluate::MAX_EPISODES;
+
+/// The settings of one optimisation; `Default` gives the paper's (N = 1000, ρ = 0.5, α = 1,
+/// weak criterion).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CeConfig {
+    /// Episodes drawn per iteration, `N`.
+    pub samples: usize,
+    /// Selective rate ρ in (0, 1): the best `ceil(ρN)` episodes are kept.
+    pub rho: f64,
+    /// Smoothing α in (0, 1]: `h := α·new + (1 − α)·h`; 1 is the paper's basic CE.
+    pub smoothing: f64,
+    /// The smoothing of the decision table `h0` alone, in (0, 1] (`None`: `smoothing`). A
+    /// smaller value lets the memory tables take shape before the decisions settle: on tabular
+    /// worlds whose optimum needs memory, the decisions otherwise lock onto the best memoryless
+    /// policy within a few iterations (model §3).
+    pub decision_smoothing: Option<f64>,
+    /// Stop after this many consecutive unsuccessful iterations (weak 100, strong 500).
+    pub patience: usize,
+    /// Stop after this many iterations.
+    pub max_iterations: Option<usize>,
+    /// Stop after this many seconds (checked between iterations).
+    pub time_limit: Option<f64>,
+    /// Stop as soon as an iteration's mean reward reaches this value.
+    pub target: Option<f64>,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Worker threads (`None`: one per core). Results do not depend on it.
+    pub threads: Option<usize>,
+    /// Fresh episodes used to evaluate the returned policy.
+    pub eval_episodes: usize,
+    /// How the elite's memory is counted: as sampled (the paper) or re-inferred.
+    pub memory_update: MemoryUpdate,
+    /// Independent runs (the first with `seed`, the others with seeds derived from it); the one
+    /// whose policy scores best on `eval_episodes` selection episodes is returned, evaluated on
+    /// other, fresh episodes. The time limit is shared by all the runs.
+    pub restarts: usize,
+}
+
+/// How the CE update counts the memory of the elite episodes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MemoryUpdate {
+    /// Count the memory states that were sampled (model §3, the paper).
+    #[default]
+    Sampled,
+    /// Count their posterior expectation given the episode's observations and decisions
+    /// (forward–backward, one EM step on the elite); levels `Λ <= 2` only.
+    ForwardBackward,
+}
+
+impl MemoryUpdate {
+    /// Every kind.
+    pub const ALL: [MemoryUpdate; 2] = [MemoryUpdate::Sampled, MemoryUpdate::ForwardBackward];
+
+    /// `"sampled"` or `"forward-backward"`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            MemoryUpdate::Sampled => "sampled",
+            MemoryUpdate::ForwardBackward => "forward-backward",
+        }
+    }
+}
+
+impl std::str::FromStr for MemoryUpdate {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "sampled" => Ok(MemoryUpdate::Sampled),
+            "forward-backward" => Ok(MemoryUpdate::ForwardBackward),
+            other => Err(Error::invalid(
+                "memory_update",
+                format!("{other:?} (expected \"sampled\" or \"forward-backward\")"),
+            )),
+        }
+    }
+}
+
+impl Default for CeConfig {
+    fn default() -> Self {
+        CeConfig {
+            samples: 1000,
+            rho: 0.5,
+            smoothing: 1.0,
+            decision_smoothing: None,
+            patience: 100,
+            max_iterations: None,
+            time_limit: None,
+            target: None,
+            seed: 0,
+            threads: None,
+            eval_episodes: 10_000,
+            memory_update: MemoryUpdate::Sampled,
+            restarts: 1,
+        }
+    }
+}
+
+/// The memory sizes used when none are given: `[16, 16]`, an input/output HMM of the paper's
+/// table.
+pub const DEFAULT_LEVELS: [usize; 2] = [16, 16];
+
+/// The paper's weak convergence criterion: 100 unsuccessful iterations in a row.
+pub const WEAK_PATIENCE: usize = 100;
+/// The paper's strong convergence criterion: 500 unsuccessful iterations in a row.
+pub const STRONG_PATIENCE: usize = 500;
+
+impl CeConfig {
+    /// Number of elite episodes, `ceil(ρN)`.
+    pub fn elite_count(&self) -> usize {
+        ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)
+    }
+
+    /// Checks every setting, naming the bad one.
+    pub fn validate(&self) -> Result<()> {
+        if self.samples == 0 {
+            return Err(Error::invalid("samples", "0 (expected at least 1 episode per iteration)"));
+        }
+        if !(self.rho > 0.0 && self.rho < 1.0) {
+            return Err(Error::invalid("rho", format!("{} (expected 0 < rho < 1)", self.rho)));
+        }
+        if !(self.smoothing > 0.0 && self.smoothing <= 1.0) {
+            return Err(Error::invalid("smoothing", format!("{} (expected 0 < smoothing <= 1)", self.smoothing)));
+        }
+        if let Some(d) = self.decision_smoothing
+            && !(d > 0.0 && d <= 1.0)
+        {
+            return Err(Error::invalid("decision_smoothing", format!("{d} (expected 0 < decision_smoothing <= 1)")));
+        }
+        if self.patience == 0 {
+            return Err(Error::invalid("patience", "0 (expected at least 1 iteration)"));
+        }
+        if self.max_iterations == Some(0) {
+            return Err(Error::invalid("max_iterations", "0 (expected at least 1, or none)"));
+        }
+        if let Some(t) = self.time_limit {
+            if t.is_nan() || t <= 0.0 {
+                return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
+            }
+        }
+        if let Some(t) = self.target {
+            if t.is_nan() {
+                return Err(Error::invalid("target", "NaN (expected a reward)"));
+            }
+        }
+        if let Some(n) = self.threads {
+            check_threads(n)?;
+        }
+        if self.restarts == 0 {
+            return Err(Error::invalid("restarts", "0 (expected at least 1 run)"));
+        }
+        if self.eval_episodes == 0 || self.eval_episodes > MAX_EPISODES {
+            return Err(Error::invalid(
+                "eval_episodes",
+                format!("{} (expected 1..={MAX_EPISODES})", self.eval_episodes),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn memory_update_names_round_trip_and_unknown_names_are_refused() {
+        for m in [MemoryUpdate::Sampled, MemoryUpdate::ForwardBackward] {
+            assert_eq!(m.as_str().parse::<MemoryUpdate>().unwrap(), m);
+        }
+        assert_eq!(MemoryUpdate::ForwardBackward.as_str(), "forward-backward");
+        let e = "viterbi".parse::<MemoryUpdate>().unwrap_err().to_string();
+        assert!(e.contains("memory_update") && e.contains("viterbi"), "{e}");
+    }
+
+    #[test]
+    fn settings_are_checked_at_their_bounds() {
+        let ok = |c: CeConfig| c.validate().is_ok();
+        let base = CeConfig::default();
+        for t in [0.0, -1.0, f64::NAN] {
+            assert!(!ok(CeConfig { time_limit: Some(t), ..base.clone() }), "time_limit {t}");
+        }
+        assert!(ok(CeConfig { time_limit: Some(1e-9), ..base.clone() }));
+        assert!(!ok(CeConfig { eval_episodes: 0, ..base.clone() }));
+        assert!(ok(CeConfig { eval_episodes: MAX_EPISODES, ..base.clone() }));
+        assert!(!ok(CeConfig { eval_episodes: MAX_EPISODES + 1, ..base.clone() }));
+        assert!(ok(CeConfig { threads: Some(crate::control::MAX_THREADS), ..base.clone() }));
+        assert!(!ok(CeConfig { threads: Some(crate::control::MAX_THREADS + 1), ..base.clone() }));
+        assert!(!ok(CeConfig { threads: Some(0), ..base.clone() }));
+        for rho in [0.0, 1.0, f64::NAN] {
+            assert!(!ok(CeConfig { rho, ..base.clone() }), "rho {rho}");
+        }
+        assert!(ok(CeConfig { rho: 0.999, ..base.clone() }));
+        assert!(!ok(CeConfig { smoothing: 0.0, ..base.clone() }));
+        assert!(!ok(CeConfig { decision_smoothing: Some(0.0), ..base.clone() }));
+        assert!(!ok(CeConfig { decision_smoothing: Some(1.5), ..base.clone() }));
+        assert!(!ok(CeConfig { decision_smoothing: Some(f64::NAN), ..base.clone() }));
+        assert!(ok(CeConfig { decision_smoothing: Some(1.0), ..base.clone() }));
+        assert!(ok(CeConfig { smoothing: 1.0, ..base.clone() }));
+        assert!(!ok(CeConfig { samples: 0, ..base.clone() }));
+        assert!(!ok(CeConfig { patience: 0, ..base.clone() }));
+        assert!(!ok(CeConfig { max_iterations: Some(0), ..base.clone() }));
+        assert!(!ok(CeConfig { restarts: 0, ..base.clone() }));
+        assert!(!ok(CeConfig { target: Some(f64::NAN), ..base }));
+    }
+}

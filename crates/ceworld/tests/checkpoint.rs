@@ -1,0 +1,200 @@
+//! CE checkpoints (issue "trust"): a run stopped at any iteration and resumed from its checkpoint
+//! ends with the policy of the uninterrupted run, bit for bit, with one run or several; a
+//! checkpoint of another world or other settings is refused; a damaged file is refused with a
+//! clear error and never a panic.
+
+use std::path::PathBuf;
+
+use ceworld::{
+    CeCheckpoint, CeConfig, CeResult, Checkpointing, Error, Flow, MemoryUpdate, StopReason, TargetTracking,
+    TrackingParams, optimize, optimize_with, random_policy,
+};
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ceworld-checkpoint-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    let _ = std::fs::remove_file(&path);
+    path
+}
+
+fn world() -> TargetTracking {
+    TargetTracking::with_params(TrackingParams { horizon: 20, ..Default::default() }).unwrap()
+}
+
+fn config() -> CeConfig {
+    CeConfig {
+        samples: 200,
+        rho: 0.1,
+        smoothing: 0.5,
+        max_iterations: Some(12),
+        eval_episodes: 200,
+        ..CeConfig::default()
+    }
+}
+
+fn uninterrupted(config: &CeConfig) -> CeResult {
+    let w = world();
+    optimize(&w, random_policy(&w, &[4, 3], 1).unwrap(), config, |_| Flow::Continue).unwrap()
+}
+
+/// Runs with a checkpoint, stopping after `stops` observed iterations (counted over every
+/// session), resuming until done; returns the final result and the number of sessions.
+fn in_sessions(config: &CeConfig, path: &std::path::Path, stops: &[usize]) -> (CeResult, usize) {
+    let w = world();
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let mut seen = 0;
+    let mut sessions = 0;
+    loop {
+        sessions += 1;
+        let result = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), config, Some(&checkpointing), |_| {
+            seen += 1;
+            if stops.contains(&seen) { Flow::Stop } else { Flow::Continue }
+        })
+        .unwrap();
+        if !result.interrupted() {
+            return (result, sessions);
+        }
+    }
+}
+
+fn assert_same(a: &CeResult, b: &CeResult) {
+    assert_eq!(a.policy, b.policy, "best policy");
+    assert_eq!(a.last_policy, b.last_policy, "last policy");
+    assert_eq!(a.best_iteration, b.best_iteration);
+    assert_eq!(a.stop, b.stop);
+    assert_eq!(a.evaluation, b.evaluation);
+    assert_eq!(a.restart, b.restart);
+    assert_eq!(a.restart_scores, b.restart_scores);
+    let means = |r: &CeResult| r.history.iter().map(|h| (h.mean.to_bits(), h.successful)).collect::<Vec<_>>();
+    assert_eq!(means(a), means(b));
+}
+
+#[test]
+fn a_resumed_run_ends_as_the_uninterrupted_one() {
+    let config = config();
+    let reference = uninterrupted(&config);
+    assert_eq!(reference.stop, StopReason::MaxIterations);
+    for stops in [vec![1], vec![5], vec![3, 7, 11], vec![12]] {
+        let path = temp(&format!("single-{stops:?}.ckpt"));
+        let (resumed, sessions) = in_sessions(&config, &path, &stops);
+        assert_eq!(sessions, stops.len() + 1);
+        assert_same(&resumed, &reference);
+    }
+}
+
+#[test]
+fn a_run_stopped_where_it_would_have_stopped_anyway_ends_at_once() {
+    // Patience 2 from a uniform start: the stop at the iteration where patience runs out must
+    // not buy an extra iteration on resume.
+    let config = CeConfig { patience: 2, max_iterations: Some(40), ..config() };
+    let reference = uninterrupted(&config);
+    assert_eq!(reference.stop, StopReason::Patience);
+    let last = reference.history.len();
+    let path = temp("patience.ckpt");
+    let (resumed, _) = in_sessions(&config, &path, &[last]);
+    assert_same(&resumed, &reference);
+}
+
+#[test]
+fn restarts_resume_inside_any_run() {
+    let config = CeConfig { restarts: 3, max_iterations: Some(5), ..config() };
+    let reference = uninterrupted(&config);
+    assert_eq!(reference.restart_scores.len(), 3);
+    // Iterations are counted over all runs: 3 is inside run 0, 5 its last, 8 inside run 1, 15 the very last.
+    for stops in [vec![3], vec![5], vec![8], vec![2, 6, 11], vec![15]] {
+        let path = temp(&format!("restarts-{stops:?}.ckpt"));
+        let (resumed, _) = in_sessions(&config, &path, &stops);
+        assert_same(&resumed, &reference);
+    }
+}
+
+#[test]
+fn forward_backward_runs_resume_too() {
+    let config = CeConfig { memory_update: MemoryUpdate::ForwardBackward, max_iterations: Some(6), ..config() };
+    let reference = uninterrupted(&config);
+    let (resumed, _) = in_sessions(&config, &temp("fb.ckpt"), &[2, 4]);
+    assert_same(&resumed, &reference);
+}
+
+#[test]
+fn a_checkpoint_of_other_settings_or_another_world_is_refused() {
+    let config = config();
+    let path = temp("mismatch.ckpt");
+    in_sessions(&config, &path, &[3]);
+    let w = world();
+    let resume = Checkpointing { path: path.clone(), every: 60.0, resume: true };
+    let run = |w: &TargetTracking, config: &CeConfig, levels: &[usize]| {
+        optimize_with(w, random_policy(w, levels, 1).unwrap(), config, Some(&resume), |_| Flow::Continue)
+    };
+    let e = run(&w, &CeConfig { seed: 9, ..config.clone() }, &[4, 3]).unwrap_err();
+    assert!(matches!(&e, Error::CheckpointMismatch(m) if m.contains("seed 0, not 9")), "{e}");
+    let e = run(&w, &CeConfig { rho: 0.2, ..config.clone() }, &[4, 3]).unwrap_err();
+    assert!(matches!(&e, Error::CheckpointMismatch(m) if m.contains("rho")), "{e}");
+    let other = TargetTracking::with_params(TrackingParams { horizon: 21, ..Default::default() }).unwrap();
+    let e = run(&other, &config, &[4, 3]).unwrap_err();
+    assert!(matches!(&e, Error::CheckpointMismatch(m) if m.contains("world")), "{e}");
+    let e = run(&w, &config, &[4, 4]).unwrap_err();
+    assert!(matches!(&e, Error::CheckpointMismatch(m) if m.contains("levels")), "{e}");
+    // Stopping rules and the time limit may change: here a longer run.
+    let longer = CeConfig { max_iterations: Some(14), ..config.clone() };
+    assert_eq!(run(&w, &longer, &[4, 3]).unwrap().history.len(), 14);
+    // Without resume the file is overwritten by a fresh run.
+    let fresh = Checkpointing { resume: false, ..resume.clone() };
+    let r =
+        optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&fresh), |_| Flow::Continue).unwrap();
+    assert_same(&r, &uninterrupted(&config));
+    let bad = Checkpointing { every: 0.0, ..resume.clone() };
+    let e =
+        optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&bad), |_| Flow::Continue).unwrap_err();
+    assert!(matches!(&e, Error::InvalidArgument { name, .. } if name == "checkpoint_every"), "{e}");
+}
+
+#[test]
+fn damaged_checkpoints_are_refused_never_a_panic() {
+    let config = config();
+    let path = temp("good.ckpt");
+    in_sessions(&config, &path, &[4]);
+    let good = std::fs::read(&path).unwrap();
+    assert!(CeCheckpoint::load(&path).is_ok());
+    let damaged = temp("damaged.ckpt");
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let mut refused = 0;
+    let cases = 300;
+    for case in 0..cases {
+        let mut bytes = good.clone();
+        match case % 3 {
+            0 => bytes.truncate((next() as usize) % bytes.len()),
+            1 => {
+                for _ in 0..=(next() % 4) {
+                    let i = (next() as usize) % bytes.len();
+                    bytes[i] = next() as u8;
+                }
+            }
+            _ => {
+                // A digit changed inside a number: the tables may stop summing to 1.
+                let digits: Vec<usize> =
+                    bytes.iter().enumerate().filter(|(_, b)| b.is_ascii_digit()).map(|(i, _)| i).collect();
+                let i = digits[(next() as usize) % digits.len()];
+                bytes[i] = b'0' + ((bytes[i] - b'0' + 1 + (next() % 9) as u8) % 10);
+            }
+        }
+        std::fs::write(&damaged, &bytes).unwrap();
+        let loaded = std::panic::catch_unwind(|| CeCheckpoint::load(&damaged));
+        match loaded.expect("never a panic") {
+            Err(Error::PolicyFormat { .. }) => refused += 1,
+            Err(e) => panic!("case {case}: unexpected error {e}"),
+            Ok(_) => {}
+        }
+    }
+    assert!(refused > cases / 2, "{refused} of {cases} refused");
+    std::fs::write(&damaged, b"{\"format\": \"cehmm-policy\"}").unwrap();
+    let e = CeCheckpoint::load(&damaged).unwrap_err();
+    assert!(e.to_string().contains("not a checkpoint"), "{e}");
+}

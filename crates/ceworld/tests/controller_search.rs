@@ -1,0 +1,173 @@
+//! The cross-entropy search over deterministic controllers (model §8): the value of a controller
+//! against a hand computation and against the exact evaluation of its HHMM, the search against
+//! brute force on a tiny problem, determinism, restarts, interruption and bad settings.
+
+use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, optimize_controller};
+use ceworld::exact::{finite_horizon, infinite_horizon};
+use ceworld::rng::{Purpose, stream};
+use ceworld::{Error, Flow, PomdpWorld, StopReason};
+use rand::RngExt;
+
+fn data(name: &str) -> String {
+    format!("{}/../../data/pomdp/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn world(name: &str, horizon: usize, discount: Option<f64>) -> PomdpWorld {
+    PomdpWorld::from_file(data(name), horizon, discount).unwrap()
+}
+
+fn value(world: &PomdpWorld, c: &Controller, tolerance: f64) -> f64 {
+    ControllerValue::new(world, tolerance).value(c, &mut Vec::new(), &mut Vec::new())
+}
+
+/// A random deterministic controller of `n` nodes.
+fn random_controller(world: &PomdpWorld, n: usize, k: u64) -> Controller {
+    let t = world.tables();
+    let y1 = t.n_observations() + 1;
+    let mut rng = stream(7, Purpose::Evaluate, 0, k);
+    Controller {
+        act: (0..n).map(|_| rng.random_range(0..t.n_actions() as u32)).collect(),
+        next: (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
+    }
+}
+
+const LISTEN: u32 = 0;
+const OPEN_LEFT: u32 = 1;
+const OPEN_RIGHT: u32 = 2;
+
+#[test]
+fn values_by_hand_on_tiger() {
+    let tiger = world("tiger.95.POMDP", 10, None);
+    // One node that always listens: −1 a step, −1/(1 − 0.95) = −20.
+    let listen = Controller { act: vec![LISTEN], next: vec![0, 0, 0] };
+    assert!((value(&tiger, &listen, 1e-10) - -20.0).abs() < 1e-9);
+    // Listen, then open the door opposite to what was heard, then start again: from either
+    // state, v = −1 + 0.95·(0.85·10 + 0.15·(−100)) + 0.95²·v, so v = −7.175 / (1 − 0.9025).
+    let once = Controller { act: vec![LISTEN, OPEN_RIGHT, OPEN_LEFT], next: vec![1, 2, 0, 0, 0, 0, 0, 0, 0] };
+    let expected = (-1.0 + 0.95 * (0.85 * 10.0 + 0.15 * -100.0)) / (1.0 - 0.95 * 0.95);
+    assert!((value(&tiger, &once, 1e-10) - expected).abs() < 1e-8, "{}", value(&tiger, &once, 1e-10));
+    // At a horizon with γ = 1: two steps of "listen, open" give −1 − 6.5.
+    let tiger2 = world("tiger.95.POMDP", 2, Some(1.0));
+    assert!((value(&tiger2, &once, 1e-10) - (-1.0 - 6.5)).abs() < 1e-12);
+}
+
+#[test]
+fn the_value_is_the_exact_value_of_the_controllers_hhmm() {
+    for (name, n) in [("tiger.95.POMDP", 3), ("4x3.95.POMDP", 4), ("cheese.95.POMDP", 5), ("shuttle.95.POMDP", 3)] {
+        let w = world(name, 7, None);
+        let t = w.tables();
+        for k in 0..5 {
+            let c = random_controller(&w, n, k);
+            let policy = c.to_hhmm(t.n_observations() + 1, t.n_actions()).unwrap();
+            let exact = infinite_horizon(&w, &policy, 1e-9).unwrap().value;
+            let v = value(&w, &c, 1e-9);
+            assert!((v - exact).abs() < 1e-7, "{name} controller {k}: {v} vs {exact}");
+        }
+        // With γ = 1, the value at the world's horizon.
+        let undiscounted = world(name, 7, Some(1.0));
+        let c = random_controller(&undiscounted, n, 9);
+        let policy = c.to_hhmm(t.n_observations() + 1, t.n_actions()).unwrap();
+        let exact = finite_horizon(&undiscounted, &policy, None).unwrap().value;
+        assert!((value(&undiscounted, &c, 1e-9) - exact).abs() < 1e-9, "{name}");
+    }
+}
+
+/// Every deterministic controller of `n` nodes, by counting in mixed radix.
+fn all_controllers(n_actions: usize, y1: usize, n: usize) -> impl Iterator<Item = Controller> {
+    let digits = n + n * y1;
+    let radix = move |i: usize| if i < n { n_actions } else { n };
+    let total: usize = (0..digits).map(radix).product();
+    (0..total).map(move |mut code| {
+        let mut d = Vec::with_capacity(digits);
+        for i in 0..digits {
+            d.push((code % radix(i)) as u32);
+            code /= radix(i);
+        }
+        Controller { act: d[..n].to_vec(), next: d[n..].to_vec() }
+    })
+}
+
+#[test]
+fn the_search_finds_the_brute_force_optimum_of_a_tiny_problem() {
+    // Tiger over 4 undiscounted steps, 2-node controllers: 3² · 2⁶ = 576 of them.
+    let w = world("tiger.95.POMDP", 4, Some(1.0));
+    let mut scratch = (Vec::new(), Vec::new());
+    let values = ControllerValue::new(&w, 1e-9);
+    let optimum =
+        all_controllers(3, 3, 2).map(|c| values.value(&c, &mut scratch.0, &mut scratch.1)).fold(f64::MIN, f64::max);
+    let config = ControllerConfig { nodes: 2, samples: 200, patience: 10, threads: Some(2), ..Default::default() };
+    let found = optimize_controller(&w, &config, |_| Flow::Continue).unwrap();
+    assert!((found.value - optimum).abs() < 1e-9, "found {} optimum {optimum}", found.value);
+    // The returned policy is the controller of that value.
+    assert!((finite_horizon(&w, &found.policy, None).unwrap().value - optimum).abs() < 1e-9);
+    assert_eq!(found.stop, StopReason::Patience);
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let w = world("cheese.95.POMDP", 10, None);
+    let run = |threads| {
+        let config = ControllerConfig {
+            nodes: 3,
+            samples: 300,
+            max_iterations: Some(6),
+            threads: Some(threads),
+            ..Default::default()
+        };
+        optimize_controller(&w, &config, |_| Flow::Continue).unwrap()
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.policy, two.policy);
+    assert_eq!(one.value.to_bits(), two.value.to_bits());
+    let strip = |o: &ceworld::ControllerOutcome| {
+        o.history.iter().map(|r| (r.mean.to_bits(), r.best.to_bits())).collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&one), strip(&two));
+}
+
+#[test]
+fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
+    let w = world("cheese.95.POMDP", 10, None);
+    let config =
+        ControllerConfig { nodes: 2, samples: 100, max_iterations: Some(3), restarts: 3, ..Default::default() };
+    let out = optimize_controller(&w, &config, |_| Flow::Continue).unwrap();
+    assert_eq!(out.run_values.len(), 3);
+    assert_eq!(out.history.len(), 9);
+    let best = out.run_values.iter().copied().fold(f64::MIN, f64::max);
+    assert_eq!(out.value, best);
+    assert_eq!(out.run_values[out.restart], best);
+    // The first run is the single run with the same seed.
+    let single =
+        optimize_controller(&w, &ControllerConfig { restarts: 1, ..config.clone() }, |_| Flow::Continue).unwrap();
+    assert_eq!(single.value, out.run_values[0]);
+
+    let mut seen = 0;
+    let stopped = optimize_controller(&w, &config, |_| {
+        seen += 1;
+        if seen == 2 { Flow::Stop } else { Flow::Continue }
+    })
+    .unwrap();
+    assert_eq!(stopped.stop, StopReason::Interrupted);
+    assert_eq!(stopped.history.len(), 2);
+    assert_eq!(stopped.value, stopped.history[1].best);
+}
+
+#[test]
+fn bad_settings_are_named() {
+    let w = world("tiger.95.POMDP", 10, None);
+    let cases: [(&str, ControllerConfig); 7] = [
+        ("nodes", ControllerConfig { nodes: 0, ..Default::default() }),
+        ("samples", ControllerConfig { samples: 0, ..Default::default() }),
+        ("rho", ControllerConfig { rho: 1.0, ..Default::default() }),
+        ("smoothing", ControllerConfig { smoothing: 0.0, ..Default::default() }),
+        ("tolerance", ControllerConfig { tolerance: f64::NAN, ..Default::default() }),
+        ("restarts", ControllerConfig { restarts: 0, ..Default::default() }),
+        ("time_limit", ControllerConfig { time_limit: Some(-1.0), ..Default::default() }),
+    ];
+    for (name, config) in cases {
+        match optimize_controller(&w, &config, |_| Flow::Continue) {
+            Err(Error::InvalidArgument { name: n, .. }) => assert_eq!(n, name),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+}
