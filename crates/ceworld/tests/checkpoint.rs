@@ -1,13 +1,12 @@
 //! CE checkpoints (issue "trust"): a run stopped at any iteration and resumed from its checkpoint
 //! ends with the policy of the uninterrupted run, bit for bit, with one run or several; a
-//! checkpoint of another world or other settings is refused; a damaged file is refused with a
-//! clear error and never a panic.
+//! checkpoint of another world or other settings is refused (damaged files: `readers_fuzz.rs`).
 
 use std::path::PathBuf;
 
 use ceworld::{
-    CeCheckpoint, CeConfig, CeResult, Checkpointing, Error, Flow, MemoryUpdate, StopReason, TargetTracking,
-    TrackingParams, optimize, optimize_with, random_policy,
+    CeConfig, CeResult, Checkpointing, Error, Flow, MemoryUpdate, StopReason, TargetTracking, TrackingParams, optimize,
+    optimize_with, random_policy,
 };
 
 fn temp(name: &str) -> PathBuf {
@@ -148,53 +147,4 @@ fn a_checkpoint_of_other_settings_or_another_world_is_refused() {
     let e =
         optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&bad), |_| Flow::Continue).unwrap_err();
     assert!(matches!(&e, Error::InvalidArgument { name, .. } if name == "checkpoint_every"), "{e}");
-}
-
-#[test]
-fn damaged_checkpoints_are_refused_never_a_panic() {
-    let config = config();
-    let path = temp("good.ckpt");
-    in_sessions(&config, &path, &[4]);
-    let good = std::fs::read(&path).unwrap();
-    assert!(CeCheckpoint::load(&path).is_ok());
-    let damaged = temp("damaged.ckpt");
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        state
-    };
-    let mut refused = 0;
-    let cases = 300;
-    for case in 0..cases {
-        let mut bytes = good.clone();
-        match case % 3 {
-            0 => bytes.truncate((next() as usize) % bytes.len()),
-            1 => {
-                for _ in 0..=(next() % 4) {
-                    let i = (next() as usize) % bytes.len();
-                    bytes[i] = next() as u8;
-                }
-            }
-            _ => {
-                // A digit changed inside a number: the tables may stop summing to 1.
-                let digits: Vec<usize> =
-                    bytes.iter().enumerate().filter(|(_, b)| b.is_ascii_digit()).map(|(i, _)| i).collect();
-                let i = digits[(next() as usize) % digits.len()];
-                bytes[i] = b'0' + ((bytes[i] - b'0' + 1 + (next() % 9) as u8) % 10);
-            }
-        }
-        std::fs::write(&damaged, &bytes).unwrap();
-        let loaded = std::panic::catch_unwind(|| CeCheckpoint::load(&damaged));
-        match loaded.expect("never a panic") {
-            Err(Error::PolicyFormat { .. }) => refused += 1,
-            Err(e) => panic!("case {case}: unexpected error {e}"),
-            Ok(_) => {}
-        }
-    }
-    assert!(refused > cases / 2, "{refused} of {cases} refused");
-    std::fs::write(&damaged, b"{\"format\": \"cehmm-policy\"}").unwrap();
-    let e = CeCheckpoint::load(&damaged).unwrap_err();
-    assert!(e.to_string().contains("not a checkpoint"), "{e}");
 }

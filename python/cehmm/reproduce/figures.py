@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .._files import write_atomic
 from ..paper_table import PAPER_BEST
 from .text import model_text
 
@@ -65,9 +65,7 @@ def make_figures(summary: list[dict[str, Any]], out_dir: Path, img_dir: Path, ro
 
     def save(name: str, fig: Any) -> None:
         path = img_dir / f"{name}.png"
-        tmp = img_dir / f".{name}.tmp.png"
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
+        write_atomic(path, lambda f: fig.savefig(f, dpi=110, format="png"), binary=True)
         written[name] = path
 
     if "summary" in planned:

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
+from .._files import write_atomic, write_text
 from ..paper_table import PAPER_BEST
 
 CSV_FIELDS = [
@@ -38,8 +38,8 @@ def write_tables(summary: list[dict[str, Any]], meta: dict[str, Any], out_dir: P
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = {**meta, "paper_best": PAPER_BEST, "rows": summary}
     _write_text(out_dir / "results.json", json.dumps(doc, indent=1, default=_json_default) + "\n")
-    tmp = out_dir / ".results.csv.tmp"
-    with open(tmp, "w", newline="") as f:
+
+    def write_csv(f: IO[Any]) -> None:
         writer = csv.DictWriter(f, fieldnames=CSV_FIELDS)
         writer.writeheader()
         for s in summary:
@@ -48,7 +48,8 @@ def write_tables(summary: list[dict[str, Any]], meta: dict[str, Any], out_dir: P
             for k in ("mean", "std", "percent", "percent_std", "min", "max", "iterations_mean", "seconds_mean"):
                 line[k] = f"{s[k]:.3f}"
             writer.writerow(line)
-    os.replace(tmp, out_dir / "results.csv")
+
+    write_atomic(out_dir / "results.csv", write_csv, newline="")
 
 
 def _json_default(value: Any) -> Any:
@@ -58,7 +59,4 @@ def _json_default(value: Any) -> Any:
 
 
 def _write_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    write_text(path, text)

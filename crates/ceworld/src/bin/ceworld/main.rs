@@ -409,7 +409,7 @@ fn run() -> Result<()> {
             let model = &world.tables().pomdp;
             print!("{}", graph.describe(&model.actions, &model.observations));
             let write = |path: &PathBuf, text: String| {
-                std::fs::write(path, text).map_err(|source| Error::Io { path: path.clone(), source })
+                ceworld::files::write_atomic(path, |out| std::io::Write::write_all(out, text.as_bytes()))
             };
             if let Some(path) = &pg {
                 write(path, graph.to_pg()?)?;

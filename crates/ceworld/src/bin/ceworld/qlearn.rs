@@ -303,7 +303,7 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
             .map(|(name, r)| serde_json::json!({ "policy": name, "reference": args.windows.reference, "report": r }))
             .collect();
         let text = serde_json::to_string_pretty(&doc).expect("reports serialise");
-        std::fs::write(out, text).map_err(|source| Error::Io { path: out.clone(), source })?;
+        ceworld::files::write_atomic(out, |f| std::io::Write::write_all(f, text.as_bytes()))?;
     }
     Ok(())
 }
