@@ -27,6 +27,8 @@ __all__ = [
     "OptimizeOutcome",
     "optimize",
     "ControllerOutcome",
+    "Agent",
+    "Session",
     "optimize_controller",
     "QLearner",
     "evaluate_policy_windows",
@@ -315,6 +317,31 @@ def optimize_controller(
     restarts: int,
     progress: bool,
 ) -> ControllerOutcome: ...
+
+@final
+class Agent:
+    """``ceworld::policy::agent::Agent``: a policy acting one observation at a time."""
+
+    def __new__(cls, policy: Policy, seed: int) -> Agent: ...
+    def reset(self) -> None: ...
+    def act(self, observation: int) -> int: ...
+    @property
+    def memory(self) -> list[int]: ...
+
+@final
+class Session:
+    """``ceworld::world::session::Session``: an episode of a world stepped from outside."""
+
+    def __new__(cls, world: World, seed: int, episode: int) -> Session: ...
+    @property
+    def observation(self) -> int: ...
+    @property
+    def t(self) -> int: ...
+    @property
+    def reward(self) -> float: ...
+    def step(self, decision: int) -> tuple[int, float, bool]: ...
+    def describe(self) -> list[int]: ...
+
 def epsilon(t: int) -> float: ...
 def evaluate_policy_windows(
     policy: Policy,

@@ -9,7 +9,7 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from ._core import Evaluation, ExactValue, InvalidArgumentError, PolicyFormatError, Rollout
+from ._core import Agent, Evaluation, ExactValue, InvalidArgumentError, PolicyFormatError, Rollout
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -231,6 +231,21 @@ class Policy:
                 deterministic.
         """
         return self._core.graph(core_world(self._world(world)), form)
+
+    def agent(self, seed: int = 0) -> Agent:
+        """This policy as an agent for any loop (a Gymnasium loop, a robot's): ``agent.reset()`` at
+        the start of each episode, then ``agent.act(observation) -> decision`` at each step; the
+        memory is kept between calls. Its draws come from ``seed`` (episode ``k`` after ``k``
+        resets has its own stream). Observations are the world's indices (``0..n_obs``).
+
+        Example:
+            >>> world = TargetTracking(case=1)
+            >>> agent = Policy.uniform(world, [4]).agent(seed=3)
+            >>> agent.reset()
+            >>> agent.act(0) in range(world.n_decisions)
+            True
+        """
+        return Agent(self._core, seed)
 
     def rollout(self, world: World | None = None, seed: int = 0, episode: int = 0) -> Rollout:
         """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``.

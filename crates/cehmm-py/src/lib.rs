@@ -23,6 +23,7 @@ mod policy;
 mod qlearn;
 mod results;
 mod signals;
+mod stepping;
 mod world;
 
 use pyo3::prelude::*;
@@ -44,6 +45,8 @@ mod _core {
     use super::qlearn::{PyQLearner, evaluate_policy_windows};
     #[pymodule_export]
     use super::results::{PyEvaluation, PyExactValue, PyRollout, PyWindowEvaluation};
+    #[pymodule_export]
+    use super::stepping::{PyAgent, PySession};
     #[pymodule_export]
     use super::world::PyWorld;
 

@@ -25,6 +25,10 @@ pub enum Purpose {
     Restart = 6,
     /// Episodes that choose the best of several restarts (disjoint from `Evaluate`'s).
     Select = 7,
+    /// The draws of a policy acting in an outside loop ([`crate::policy::agent::Agent`]).
+    Agent = 8,
+    /// Episodes of a world stepped from outside ([`crate::world::session::Session`]).
+    Session = 9,
 }
 
 /// `SplitMix64`'s finaliser: a bijective 64-bit mixer with good avalanche.

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::rng::EngineRng;
 
+pub mod agent;
 pub(crate) mod alias;
 pub mod file;
 pub mod graph;

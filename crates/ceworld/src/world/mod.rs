@@ -6,6 +6,7 @@ use crate::rng::EngineRng;
 pub mod cassandra;
 pub mod pomdp;
 pub mod registry;
+pub mod session;
 pub mod tracking;
 
 /// An episodic world that the optimiser can sample.

@@ -1,0 +1,109 @@
+//! A world run one step at a time by an outside caller (a Gymnasium environment, an outside
+//! agent): the same `reset`, `observe`, `step` as an episode of the engine (model §1), with the
+//! step's reward read as the change of the episode's reward so far.
+
+use crate::error::{Error, Result};
+use crate::rng::{EngineRng, Purpose, stream};
+use crate::world::World;
+use crate::world::pomdp::PomdpWorld;
+use crate::world::registry::AnyWorld;
+use crate::world::tracking::TargetTracking;
+
+/// One world's episode in progress.
+#[derive(Clone, Debug)]
+pub struct Stepper<W: World> {
+    world: W,
+    state: W::State,
+    rng: EngineRng,
+    t: usize,
+    observation: usize,
+    reward: f64,
+}
+
+impl<W: World + Clone> Stepper<W> {
+    fn start(world: &W, seed: u64, episode: u64) -> Stepper<W> {
+        let mut rng = stream(seed, Purpose::Session, 0, episode);
+        let state = world.reset(&mut rng);
+        let observation = world.observe(&state, &mut rng);
+        let reward = world.reward(&state);
+        Stepper { world: world.clone(), state, rng, t: 1, observation, reward }
+    }
+
+    fn step(&mut self, decision: usize) -> Result<(usize, f64, bool)> {
+        let d = self.world.n_decisions();
+        if decision >= d {
+            return Err(Error::invalid("decision", format!("{decision} (expected 0..{d})")));
+        }
+        if self.t > self.world.horizon() {
+            return Err(Error::invalid("step", "after the last step (reset the episode first)"));
+        }
+        self.world.step(&mut self.state, decision, &mut self.rng);
+        self.t += 1;
+        let reward = self.world.reward(&self.state);
+        let gained = reward - self.reward;
+        self.reward = reward;
+        self.observation = self.world.observe(&self.state, &mut self.rng);
+        Ok((self.observation, gained, self.t > self.world.horizon()))
+    }
+
+    fn describe(&self) -> Vec<i64> {
+        let mut out = Vec::new();
+        self.world.describe(&self.state, &mut out);
+        out
+    }
+}
+
+/// An episode of any registered world, stepped from outside.
+#[derive(Clone, Debug)]
+pub enum Session {
+    /// Of the target-tracking world.
+    TargetTracking(Stepper<TargetTracking>),
+    /// Of a tabular world.
+    Pomdp(Stepper<PomdpWorld>),
+}
+
+macro_rules! with_stepper {
+    ($session:expr, $s:ident => $body:expr) => {
+        match $session {
+            Session::TargetTracking($s) => $body,
+            Session::Pomdp($s) => $body,
+        }
+    };
+}
+
+impl Session {
+    /// Episode `episode` of `world`, drawn from `seed` (the same pair gives the same episode for
+    /// the same decisions); its first observation is ready.
+    pub fn start(world: &AnyWorld, seed: u64, episode: u64) -> Session {
+        match world {
+            AnyWorld::TargetTracking(w) => Session::TargetTracking(Stepper::start(w, seed, episode)),
+            AnyWorld::Pomdp(w) => Session::Pomdp(Stepper::start(w, seed, episode)),
+        }
+    }
+
+    /// The current observation `y_t`.
+    pub fn observation(&self) -> usize {
+        with_stepper!(self, s => s.observation)
+    }
+
+    /// The step `t` the next decision is for (`horizon + 1` once the episode is over).
+    pub fn t(&self) -> usize {
+        with_stepper!(self, s => s.t)
+    }
+
+    /// The episode's reward so far.
+    pub fn reward(&self) -> f64 {
+        with_stepper!(self, s => s.reward)
+    }
+
+    /// Takes `decision` at step `t`: the next observation, the reward it gained, and whether the
+    /// episode is over (after `horizon` steps).
+    pub fn step(&mut self, decision: usize) -> Result<(usize, f64, bool)> {
+        with_stepper!(self, s => s.step(decision))
+    }
+
+    /// The state as numbers (the world's `state_labels`).
+    pub fn describe(&self) -> Vec<i64> {
+        with_stepper!(self, s => s.describe())
+    }
+}

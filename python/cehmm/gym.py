@@ -1,0 +1,103 @@
+"""The target-tracking world as a Gymnasium environment, ``cehmm/TargetTracking-v0`` (model §4).
+
+``gymnasium.make("cehmm/TargetTracking-v0", case=3)`` (any :class:`cehmm.TargetTracking` keyword
+is taken) steps the engine's own world one decision at a time: ``Discrete(16)`` observations and
+decisions (model §4's ``y`` and ``d``), the reward of a step is 1 when it is rewarded (the
+episode's return is the world's ``V``), never ``terminated``, ``truncated`` after the horizon.
+``render_mode="ansi"`` draws the grid as text, ``"rgb_array"`` as an image. A learned policy acts
+in such a loop through :meth:`cehmm.Policy.agent`.
+
+Gymnasium is an optional dependency (``pip install cehmm[gym]``): importing this module needs it,
+and registers the environment; ``gymnasium.make("cehmm.gym:cehmm/TargetTracking-v0")`` imports it
+first (Gymnasium 1.x no longer loads plugins by itself).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from . import _core
+from .tracking import TargetTracking
+from .world import core_world
+
+ENV_ID = "cehmm/TargetTracking-v0"
+
+#: Colours of the rgb_array drawing: empty cell, target rows, B, C, the target.
+_COLOURS = {
+    "empty": (245, 245, 245),
+    "rows": (225, 232, 245),
+    "B": (31, 119, 180),
+    "C": (44, 160, 44),
+    "target": (214, 39, 40),
+}
+_CELL = 12
+
+
+class TargetTrackingEnv(gymnasium.Env[np.int64, np.int64]):
+    """The paper's target-tracking world (model §4) as a Gymnasium environment (module docs)."""
+
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+
+    def __init__(self, render_mode: str | None = None, **params: Any) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"invalid render_mode: {render_mode!r} (expected one of {self.metadata['render_modes']})")
+        self.world = TargetTracking(**params)
+        self.render_mode = render_mode
+        self.observation_space = spaces.Discrete(self.world.n_observations)
+        self.action_space = spaces.Discrete(self.world.n_decisions)
+        self._params = self.world.to_dict()
+        self._session: _core.Session | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.int64, dict]:
+        super().reset(seed=seed)
+        # Each episode's draws come from the environment's generator: the same seed, the same episodes.
+        episode_seed = int(self.np_random.integers(0, 2**63))
+        self._session = _core.Session(core_world(self.world), episode_seed, 0)
+        return np.int64(self._session.observation), {"t": self._session.t}
+
+    def step(self, action: Any) -> tuple[np.int64, float, bool, bool, dict]:
+        if self._session is None:
+            raise gymnasium.error.ResetNeeded("call reset() before step()")
+        observation, reward, over = self._session.step(int(action))
+        return np.int64(observation), float(reward), False, over, {"t": self._session.t}
+
+    def render(self) -> str | np.ndarray | None:
+        if self.render_mode is None or self._session is None:
+            return None
+        return self._ansi() if self.render_mode == "ansi" else self._rgb()
+
+    def _cells(self) -> tuple[int, int, dict[tuple[int, int], str]]:
+        assert self._session is not None
+        b_i, b_j, _, c_i, c_j, _, r_i, r_j = self._session.describe()
+        marks = {(r_i, r_j): "target", (c_i, c_j): "C", (b_i, b_j): "B"}
+        return int(self._params["width"]), int(self._params["height"]), marks
+
+    def _ansi(self) -> str:
+        width, height, marks = self._cells()
+        symbol = {"B": "B", "C": "C", "target": "R"}
+        lines = ["".join(symbol.get(marks.get((i, j), ""), ".") for i in range(width)) for j in range(height)]
+        assert self._session is not None
+        return "\n".join(lines) + f"\nt = {self._session.t}, reward so far {self._session.reward:g}\n"
+
+    def _rgb(self) -> np.ndarray:
+        width, height, marks = self._cells()
+        image = np.empty((height * _CELL, width * _CELL, 3), dtype=np.uint8)
+        image[:] = _COLOURS["empty"]
+        low, high = self._params.get("target_rows", [0, -1])
+        image[low * _CELL : (high + 1) * _CELL] = _COLOURS["rows"]
+        for (i, j), what in marks.items():
+            image[j * _CELL + 1 : (j + 1) * _CELL - 1, i * _CELL + 1 : (i + 1) * _CELL - 1] = _COLOURS[what]
+        return image
+
+
+def register_envs() -> None:
+    """Registers ``cehmm/TargetTracking-v0`` with Gymnasium (once)."""
+    if ENV_ID not in gymnasium.registry:
+        gymnasium.register(id=ENV_ID, entry_point="cehmm.gym:TargetTrackingEnv")
+
+
+register_envs()

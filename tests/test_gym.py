@@ -1,0 +1,79 @@
+"""Gymnasium both ways, first half: the target-tracking world as ``cehmm/TargetTracking-v0``
+(passing Gymnasium's own checker, rendering ``ansi`` and ``rgb_array``), and learned policies as
+agents in any loop, scoring there what the engine's evaluation says they score."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import gymnasium
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import cehmm
+import cehmm.gym
+
+
+def test_the_environment_passes_gymnasiums_checker() -> None:
+    for mode in ("ansi", "rgb_array"):
+        env = gymnasium.make(cehmm.gym.ENV_ID, case=3, render_mode=mode)
+        with warnings.catch_warnings():
+            # The checker warns about what it cannot test; the checks themselves must pass.
+            warnings.simplefilter("ignore", UserWarning)
+            check_env(env.unwrapped)
+    small = dict(width=8, height=6, start_b=[0, 5], start_c=[7, 5], target_cell=[4, 3], target_rows=[0, 2])
+    env = gymnasium.make("cehmm.gym:cehmm/TargetTracking-v0", case=1, render_mode="rgb_array", **small)
+    assert env.observation_space == gymnasium.spaces.Discrete(16)
+    assert env.action_space == gymnasium.spaces.Discrete(16)
+    env.reset(seed=0)
+    image = env.render()
+    assert isinstance(image, np.ndarray) and image.shape == (6 * 12, 8 * 12, 3) and image.dtype == np.uint8
+
+
+def test_episodes_follow_the_world() -> None:
+    env = cehmm.gym.TargetTrackingEnv(case=1, render_mode="ansi")
+    first, info = env.reset(seed=4)
+    assert info == {"t": 1}
+    again, _ = env.reset(seed=4)
+    assert first == again
+    total, steps, truncated = 0.0, 0, False
+    while not truncated:
+        _, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        assert not terminated and reward in (0.0, 1.0)
+        total += reward
+        steps += 1
+    assert steps == 100 and info["t"] == 101
+    text = env.render()
+    assert isinstance(text, str) and text.count("\n") == 21 and "B" in text and "R" in text
+    assert f"reward so far {total:g}" in text
+    with pytest.raises(cehmm.InvalidArgumentError, match="after the last step"):
+        env.step(0)
+    env.reset(seed=1)
+    with pytest.raises(cehmm.InvalidArgumentError, match="decision: 16"):
+        env.step(16)
+
+
+def test_a_learned_agent_scores_in_a_gymnasium_loop_what_the_engine_says(case1: cehmm.TargetTracking) -> None:
+    result = cehmm.optimize(case1, levels=[8, 4], samples=300, rho=0.1, max_iterations=15, progress=False)
+    engine = result.policy.evaluate(case1, episodes=4000, seed=2)
+    env = gymnasium.make(cehmm.gym.ENV_ID, case=1)
+    agent = result.policy.agent(seed=9)
+    returns = []
+    for episode in range(400):
+        observation, _ = env.reset(seed=episode)
+        agent.reset()
+        total, done = 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, _ = env.step(agent.act(observation))
+            total += reward
+            done = terminated or truncated
+        returns.append(total)
+    mean, sd = float(np.mean(returns)), float(np.std(returns, ddof=1))
+    z = (mean - engine.mean) / math.hypot(sd / math.sqrt(len(returns)), engine.std_error)
+    assert abs(z) < 4, (mean, engine.mean, z)
+    with pytest.raises(cehmm.InvalidArgumentError, match="observation: 16"):
+        agent.act(16)
+    with pytest.raises(TypeError, match="observation"):
+        agent.act("3")  # type: ignore[arg-type]
