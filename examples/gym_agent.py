@@ -21,7 +21,7 @@ engine = result.policy.evaluate(world, episodes=20_000, seed=1)
 env = gymnasium.make(cehmm.gym.ENV_ID, case=3)
 agent = result.policy.agent(seed=0)
 returns = []
-for episode in range(1000):
+for episode in range(1000):  # the plain loop; cehmm.gym.play(env, agent, 1000) does the same
     observation, _ = env.reset(seed=episode)
     agent.reset()
     total, done = 0.0, False

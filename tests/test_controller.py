@@ -27,7 +27,17 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
     assert exact.value == pytest.approx(result.value, abs=2e-6)
     assert result.policy.provenance["method"] == "controller-ce"
     h = result.history
-    assert set(h) == {"restart", "iteration", "mean", "elite_min", "max", "best", "concentration", "seconds"}
+    assert set(h) == {
+        "restart",
+        "iteration",
+        "mean",
+        "elite_min",
+        "max",
+        "best",
+        "concentration",
+        "evaluated",
+        "seconds",
+    }
     assert len(h["best"]) == len(h["mean"]) and h["best"][-1] == result.value
     assert result.stop_reason == "patience" and not result.interrupted
 

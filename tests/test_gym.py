@@ -60,16 +60,8 @@ def test_a_learned_agent_scores_in_a_gymnasium_loop_what_the_engine_says(case1: 
     engine = result.policy.evaluate(case1, episodes=4000, seed=2)
     env = gymnasium.make(cehmm.gym.ENV_ID, case=1)
     agent = result.policy.agent(seed=9)
-    returns = []
-    for episode in range(400):
-        observation, _ = env.reset(seed=episode)
-        agent.reset()
-        total, done = 0.0, False
-        while not done:
-            observation, reward, terminated, truncated, _ = env.step(agent.act(observation))
-            total += reward
-            done = terminated or truncated
-        returns.append(total)
+    returns = cehmm.gym.play(env, agent, episodes=400)
+    assert returns.shape == (400,) and np.all((returns >= 0) & (returns <= 100))
     mean, sd = float(np.mean(returns)), float(np.std(returns, ddof=1))
     z = (mean - engine.mean) / math.hypot(sd / math.sqrt(len(returns)), engine.std_error)
     assert abs(z) < 4, (mean, engine.mean, z)

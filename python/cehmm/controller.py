@@ -29,7 +29,8 @@ class ControllerResult:
         history: one numpy array per statistic, one entry per iteration of every run in order:
             ``restart``, ``iteration`` (int64), ``mean``, ``elite_min``, ``max``, ``best``
             (exact values), ``concentration`` (mean largest probability of the laws' rows: 1
-            when every draw is the same controller) and ``seconds``.
+            when every draw is the same controller), ``evaluated`` (controllers evaluated: fewer
+            than ``samples`` when the time limit cut the iteration) and ``seconds``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
             ``"time_limit"`` or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
@@ -94,7 +95,8 @@ def optimize_controller(
         smoothing: ``0 < smoothing <= 1``.
         patience: iterations without progress before a run stops.
         max_iterations: stop a run after this many iterations.
-        time_limit: stop after this many seconds (all runs together).
+        time_limit: stop after this many seconds (all runs together), checked before each
+            controller's evaluation; an iteration it cuts does not refit the laws.
         tolerance: absolute tolerance of each infinite-horizon value.
         seed: seed of every random stream.
         threads: worker threads (default: one per core).

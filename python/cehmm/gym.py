@@ -94,6 +94,30 @@ class TargetTrackingEnv(gymnasium.Env[np.int64, np.int64]):
         return image
 
 
+def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.ndarray:
+    """The return of each of ``episodes`` episodes of ``agent`` (e.g. :meth:`cehmm.Policy.agent`)
+    in ``env``: episode ``k`` resets the environment with ``seed + k`` and the agent, then steps
+    until it is terminated or truncated.
+
+    Example:
+        >>> env = gymnasium.make(ENV_ID, case=1)
+        >>> agent = cehmm.Policy.uniform(cehmm.TargetTracking(case=1), [2]).agent()
+        >>> play(env, agent, episodes=3).shape
+        (3,)
+    """
+    returns = np.empty(episodes)
+    for k in range(episodes):
+        observation, _ = env.reset(seed=seed + k)
+        agent.reset()
+        total, done = 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, _ = env.step(agent.act(observation))
+            total += float(reward)
+            done = terminated or truncated
+        returns[k] = total
+    return returns
+
+
 def register_envs() -> None:
     """Registers ``cehmm/TargetTracking-v0`` with Gymnasium (once)."""
     if ENV_ID not in gymnasium.registry:

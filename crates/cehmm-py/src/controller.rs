@@ -52,6 +52,7 @@ impl PyControllerOutcome {
         history.set_item("max", column(|r| r.max))?;
         history.set_item("best", column(|r| r.best))?;
         history.set_item("concentration", column(|r| r.concentration))?;
+        history.set_item("evaluated", index(|r| r.evaluated))?;
         history.set_item("seconds", column(|r| r.seconds))?;
         Ok(history)
     }

@@ -171,3 +171,16 @@ fn bad_settings_are_named() {
         }
     }
 }
+
+#[test]
+fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
+    // Hallway: 2000 eight-node controllers take far longer than 10 ms to evaluate.
+    let w = world("hallway.POMDP", 10, None);
+    let config = ControllerConfig { time_limit: Some(0.01), threads: Some(2), ..Default::default() };
+    let out = optimize_controller(&w, &config, |_| Flow::Continue).unwrap();
+    assert_eq!(out.stop, StopReason::TimeLimit);
+    assert_eq!(out.history.len(), 1);
+    let first = &out.history[0];
+    assert!(first.evaluated >= 1 && first.evaluated < 2000, "{}", first.evaluated);
+    assert!(out.value.is_finite() && out.value == first.best);
+}

@@ -53,7 +53,8 @@ pub struct ControllerConfig {
     pub patience: usize,
     /// Stop after this many iterations.
     pub max_iterations: Option<usize>,
-    /// Stop after this many seconds (checked between iterations).
+    /// Stop after this many seconds (checked before each controller's evaluation: an
+    /// iteration cut by it does not refit the laws).
     pub time_limit: Option<f64>,
     /// Absolute tolerance of each controller's infinite-horizon value (`γ < 1`).
     pub tolerance: f64,
@@ -143,6 +144,8 @@ pub struct ControllerIteration {
     pub best: f64,
     /// Mean over the laws' rows of their largest probability (1: every draw is the same controller).
     pub concentration: f64,
+    /// Controllers evaluated (fewer than `samples` when the time limit cut the iteration).
+    pub evaluated: usize,
     /// Seconds since the start.
     pub seconds: f64,
 }
@@ -398,19 +401,28 @@ impl Search<'_> {
         let mut best_threshold = f64::NEG_INFINITY;
         let stop = loop {
             let iteration = history.len();
-            let drawn: Vec<(f64, Controller)> = self.pool.install(|| {
+            let over_time = || config.time_limit.is_some_and(|s| started.elapsed().as_secs_f64() >= s);
+            // Past the time limit, the controllers not yet evaluated are left out (the first
+            // always counts): an iteration may be long on a large model or a discount near 1.
+            let drawn: Vec<Option<(f64, Controller)>> = self.pool.install(|| {
                 (0..config.samples)
                     .into_par_iter()
                     .map_init(
                         || (Vec::new(), Vec::new()),
                         |(v, w), k| {
+                            if k > 0 && over_time() {
+                                return None;
+                            }
                             let mut rng = stream(seed, Purpose::Optimise, iteration as u64, k as u64);
                             let c = laws.draw(&mut rng);
-                            (self.values.value(&c, v, w), c)
+                            Some((self.values.value(&c, v, w), c))
                         },
                     )
                     .collect()
             });
+            let cut = drawn.iter().any(Option::is_none);
+            let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
+            let elite_size = elite_size.min(drawn.len());
             let mut order: Vec<usize> = (0..drawn.len()).collect();
             // Highest value first; equal values keep their draw order (deterministic).
             order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
@@ -430,8 +442,11 @@ impl Search<'_> {
             // the laws there.
             let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
             let kept = if above > 0 { above } else { elite_size };
-            let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
-            laws.refit(&elite, config.smoothing);
+            if !cut {
+                // A cut iteration's elite would favour whichever controllers came first.
+                let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
+                laws.refit(&elite, config.smoothing);
+            }
             let record = ControllerIteration {
                 restart,
                 iteration,
@@ -440,6 +455,7 @@ impl Search<'_> {
                 max: drawn[top].0,
                 best: best.as_ref().map_or(f64::NAN, |b| b.0),
                 concentration: laws.concentration(),
+                evaluated: drawn.len(),
                 seconds: started.elapsed().as_secs_f64(),
             };
             let flow = observe(&record);
@@ -453,7 +469,7 @@ impl Search<'_> {
             if config.max_iterations.is_some_and(|m| history.len() >= m) {
                 break StopReason::MaxIterations;
             }
-            if config.time_limit.is_some_and(|s| started.elapsed().as_secs_f64() >= s) {
+            if cut || over_time() {
                 break StopReason::TimeLimit;
             }
         };

@@ -32,7 +32,8 @@ pub(crate) struct ControllerArgs {
     /// Stop after this many iterations.
     #[arg(long)]
     max_iterations: Option<usize>,
-    /// Stop after this many seconds (checked between iterations).
+    /// Stop after this many seconds (checked before each controller's evaluation; an iteration
+    /// it cuts does not refit the laws).
     #[arg(long)]
     time_limit: Option<f64>,
     /// Absolute tolerance of each controller's infinite-horizon value.
