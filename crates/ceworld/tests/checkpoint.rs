@@ -2,19 +2,16 @@
 //! ends with the policy of the uninterrupted run, bit for bit, with one run or several; a
 //! checkpoint of another world or other settings is refused (damaged files: `readers_fuzz.rs`).
 
-use std::path::PathBuf;
+#[path = "common/temp.rs"]
+mod temp;
 
 use ceworld::{
     CeConfig, CeResult, Checkpointing, Error, Flow, MemoryUpdate, StopReason, TargetTracking, TrackingParams, optimize,
     optimize_with, random_policy,
 };
 
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ceworld-checkpoint-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    let _ = std::fs::remove_file(&path);
-    path
+fn temp(name: &str) -> temp::TempPath {
+    temp::TempPath::new("ceworld-checkpoint", name)
 }
 
 fn world() -> TargetTracking {
@@ -122,7 +119,7 @@ fn a_checkpoint_of_other_settings_or_another_world_is_refused() {
     let path = temp("mismatch.ckpt");
     in_sessions(&config, &path, &[3]);
     let w = world();
-    let resume = Checkpointing { path: path.clone(), every: 60.0, resume: true };
+    let resume = Checkpointing { path: path.to_path_buf(), every: 60.0, resume: true };
     let run = |w: &TargetTracking, config: &CeConfig, levels: &[usize]| {
         optimize_with(w, random_policy(w, levels, 1).unwrap(), config, Some(&resume), |_| Flow::Continue)
     };

@@ -1,19 +1,19 @@
 //! The `ceworld` binary: happy paths, clear errors (exit code 2, never a panic), Ctrl-C.
 
+#[path = "common/temp.rs"]
+mod temp;
+
 mod common;
 #[cfg(unix)]
 use common::interrupt_when_ready;
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn ceworld(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ceworld")).args(args).output().expect("the binary runs")
 }
 
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ceworld-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+fn temp(name: &str) -> temp::TempPath {
+    temp::TempPath::new("ceworld-cli", name)
 }
 
 fn fails_with(args: &[&str], needles: &[&str]) {

@@ -1,10 +1,13 @@
 //! `ceworld qlearn` and `ceworld qlearn-eval` on a 5 × 5 grid (a 10 MB table): runs, files,
 //! resume, Ctrl-C, and the refusal of a table that does not fit in memory.
 
+#[path = "common/temp.rs"]
+mod temp;
+
 mod common;
 #[cfg(unix)]
 use common::interrupt_when_ready;
-use std::path::PathBuf;
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// The 5 × 5 world: 16 × 100 × 100 states.
@@ -28,12 +31,8 @@ fn ceworld(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ceworld")).args(args).output().expect("the binary runs")
 }
 
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ceworld-qlearn-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    let _ = std::fs::remove_file(&path);
-    path
+fn temp(name: &str) -> temp::TempPath {
+    temp::TempPath::new("ceworld-qlearn-cli", name)
 }
 
 fn qlearn(out: &str, iterations: &str, extra: &[&str]) -> Output {
@@ -44,7 +43,7 @@ fn qlearn(out: &str, iterations: &str, extra: &[&str]) -> Output {
     ceworld(&args)
 }
 
-fn header(path: &PathBuf) -> serde_json::Value {
+fn header(path: &Path) -> serde_json::Value {
     ceworld::qlearn::read_header(path).unwrap()
 }
 

@@ -4,8 +4,11 @@
 //! panic, never another kind of error. `READERS_FUZZ_ITERS` sets the mutations per reader
 //! (default 300), `READERS_FUZZ_SEED` the seed; the counts are printed (`--nocapture`).
 
+#[path = "common/temp.rs"]
+mod temp;
+
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use ceworld::qlearn::{AnyLearner, QConfig};
 use ceworld::{
@@ -13,10 +16,8 @@ use ceworld::{
     optimize_with, random_policy,
 };
 
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ceworld-readers-fuzz-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+fn temp(name: &str) -> temp::TempPath {
+    temp::TempPath::new("ceworld-readers-fuzz", name)
 }
 
 /// xorshift64: a small deterministic generator for the mutations.
@@ -134,14 +135,15 @@ fn damaged_checkpoints() {
     let w = world();
     let config = CeConfig { samples: 100, max_iterations: Some(3), eval_episodes: 50, ..CeConfig::default() };
     let path = temp("good.ckpt");
-    let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: false };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: false };
     let initial = random_policy(&w, &[3, 2], 1).unwrap();
     optimize_with(&w, initial, &config, Some(&checkpointing), |_| Flow::Continue).unwrap();
     let good = std::fs::read(&path).unwrap();
     let (refused, _) = fuzz("checkpoint", &good, good.len(), |p| CeCheckpoint::load(p).map(|_| ()));
     assert!(refused > iterations() / 2);
-    std::fs::write(temp("other.ckpt"), b"{\"format\": \"cehmm-policy\"}").unwrap();
-    let e = CeCheckpoint::load(&temp("other.ckpt")).unwrap_err();
+    let other = temp("other.ckpt");
+    std::fs::write(&other, b"{\"format\": \"cehmm-policy\"}").unwrap();
+    let e = CeCheckpoint::load(&other).unwrap_err();
     assert!(e.to_string().contains("not a checkpoint"), "{e}");
 }
 

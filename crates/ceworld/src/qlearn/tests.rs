@@ -1,5 +1,8 @@
 //! Unit tests of Q-learning.
 
+#[path = "../../tests/common/temp.rs"]
+mod temp;
+
 use crate::error::Result;
 use rand::Rng;
 use serde_json::json;
@@ -35,7 +38,6 @@ use crate::world::tracking::TargetTracking;
 use crate::world::tracking::TrackingParams;
 use crate::world::tracking::TrackingState;
 use serde_json::Value;
-use std::path::PathBuf;
 
 /// A two-state cycle 0 → 1 → 0 → ... with one observation, `D` decisions that do not
 /// matter, and reward 1 for every step taken from state 1: the Q-learning updates can be
@@ -108,10 +110,8 @@ fn small_world() -> TargetTracking {
     .unwrap()
 }
 
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ceworld-qlearn-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+fn temp(name: &str) -> temp::TempPath {
+    temp::TempPath::new("ceworld-qlearn", name)
 }
 
 #[test]
