@@ -48,6 +48,12 @@ pub fn stream_key(seed: u64, purpose: Purpose, iteration: u64, index: u64) -> u6
     mix64(h ^ index.wrapping_mul(0xe703_7ed1_a0b4_28db))
 }
 
+/// The seed of run `restart` of an optimisation with `seed`: the seed itself for run 0, a key
+/// of its own for each later run.
+pub fn restart_seed(seed: u64, restart: usize) -> u64 {
+    if restart == 0 { seed } else { stream_key(seed, Purpose::Restart, restart as u64, 0) }
+}
+
 /// The generator of one stream.
 #[inline]
 pub fn stream(seed: u64, purpose: Purpose, iteration: u64, index: u64) -> EngineRng {

@@ -11,9 +11,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from .._files import write_text
 from ..reproduce.machine import machine_info, source_commit
 from ..reproduce.records import append_record, read_records
-from ..reproduce.tables import _write_text
 from ..reproduce.text import _fmt_duration
 from . import config
 from .files import file_facts, find_files, parse_sarsop
@@ -114,7 +114,7 @@ def _report_only(args: argparse.Namespace) -> int:
             return 1
         print(f"{report} is what {jsonl} gives")
         return 0
-    _write_text(report, text)
+    write_text(report, text)
     print(f"wrote {report} from {jsonl}")
     return 0
 
@@ -191,6 +191,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"interrupted: {outcome.finished} job(s) finished and kept in {jsonl}", file=sys.stderr, flush=True)
     if outcome.failed:
         print(f"{len(outcome.failed)} job(s) failed:\n  " + "\n  ".join(outcome.failed), file=sys.stderr, flush=True)
-    _write_text(report, render_report(read_records(jsonl)))
+    write_text(report, render_report(read_records(jsonl)))
     print(f"wrote {report} ({_fmt_duration(time.perf_counter() - start)})", flush=True)
     return 130 if outcome.stopping else (1 if outcome.failed else 0)

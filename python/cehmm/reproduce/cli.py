@@ -11,6 +11,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from .._files import write_text
 from ..paper_table import QUICK_ROWS, QUICK_SEEDS, ROWS, SETTINGS
 from .figures import make_figures, planned_figures
 from .jobs import expected_kwargs, job_kwargs, kwargs_key, load_preset, parse_set, select_rows, settings_label
@@ -19,7 +20,7 @@ from .records import DEFAULT_DATA, JSONL_NAME, read_records
 from .report import render_report
 from .run import run_jobs
 from .summary import aggregate, run_stats
-from .tables import _write_text, write_tables
+from .tables import write_tables
 from .text import _fmt_duration, model_text
 
 
@@ -261,7 +262,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     write_tables(summary, meta, out_dir)
     drawn = {} if args.no_figures else make_figures(summary, out_dir, img_dir, rollouts=rollouts)
-    _write_text(report_path, text)
+    write_text(report_path, text)
     print(
         f"wrote {out_dir / 'results.json'}, {out_dir / 'results.csv'}, {report_path}"
         + (f" and {len(drawn)} figure(s) in {img_dir}" if drawn else "")

@@ -37,7 +37,7 @@ CSV_FIELDS = [
 def write_tables(summary: list[dict[str, Any]], meta: dict[str, Any], out_dir: Path) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = {**meta, "paper_best": PAPER_BEST, "rows": summary}
-    _write_text(out_dir / "results.json", json.dumps(doc, indent=1, default=_json_default) + "\n")
+    write_text(out_dir / "results.json", json.dumps(doc, indent=1, default=_json_default) + "\n")
 
     def write_csv(f: IO[Any]) -> None:
         writer = csv.DictWriter(f, fieldnames=CSV_FIELDS)
@@ -56,7 +56,3 @@ def _json_default(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def _write_text(path: Path, text: str) -> None:
-    write_text(path, text)

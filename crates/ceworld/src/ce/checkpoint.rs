@@ -11,6 +11,7 @@
 //! checkpoint of another world or other settings, naming the first that differs.
 
 use std::path::Path;
+use std::time::Instant;
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::Value;
@@ -19,6 +20,7 @@ use crate::ce::config::CeConfig;
 use crate::ce::optimize::{CeResult, IterationRecord};
 use crate::error::{Error, Result};
 use crate::policy::{Hhmm, Layout};
+use crate::world::World;
 
 /// The `"format"` of a checkpoint file.
 pub const FORMAT: &str = "cehmm-ce-checkpoint";
@@ -101,6 +103,21 @@ pub struct CeCheckpoint {
 }
 
 impl CeCheckpoint {
+    /// The state of an optimisation that has not started.
+    pub fn fresh(world: Value, config: &CeConfig) -> CeCheckpoint {
+        CeCheckpoint {
+            format: FORMAT.into(),
+            version: VERSION,
+            world,
+            config: config.clone(),
+            restart: 0,
+            finished: Vec::new(),
+            run: None,
+            seconds: 0.0,
+            engine_version: crate::VERSION.into(),
+        }
+    }
+
     /// Saves the checkpoint through a temporary file renamed over `path`.
     pub fn save(&self, path: &Path) -> Result<()> {
         if let Some(what) = self.non_finite() {
@@ -138,7 +155,7 @@ impl CeCheckpoint {
             return mismatch("the world", self.world.to_string(), world.to_string());
         }
         let c = &self.config;
-        let pairs: [(&str, String, String); 7] = [
+        let pairs: [(&str, String, String); 8] = [
             ("samples", c.samples.to_string(), config.samples.to_string()),
             ("rho", c.rho.to_string(), config.rho.to_string()),
             ("smoothing", c.smoothing.to_string(), config.smoothing.to_string()),
@@ -146,14 +163,12 @@ impl CeCheckpoint {
             ("seed", c.seed.to_string(), config.seed.to_string()),
             ("memory_update", c.memory_update.as_str().into(), config.memory_update.as_str().into()),
             ("restarts", c.restarts.to_string(), config.restarts.to_string()),
+            ("eval_episodes", c.eval_episodes.to_string(), config.eval_episodes.to_string()),
         ];
         for (name, saved, given) in pairs {
             if saved != given {
                 return mismatch(name, saved, given);
             }
-        }
-        if c.eval_episodes != config.eval_episodes {
-            return mismatch("eval_episodes", c.eval_episodes.to_string(), config.eval_episodes.to_string());
         }
         Ok(())
     }
@@ -175,6 +190,74 @@ impl CeCheckpoint {
             }
         }
         None
+    }
+}
+
+/// Keeps the checkpoint of a run and saves it when due.
+pub(crate) struct Saver<'a> {
+    checkpointing: Option<&'a Checkpointing>,
+    /// What is saved: the runs over, the run in progress when saving.
+    pub state: CeCheckpoint,
+    /// Seconds spent by earlier sessions.
+    pub before: f64,
+    started: Instant,
+    last_save: Instant,
+}
+
+impl<'a> Saver<'a> {
+    /// The state of a fresh run, or the checkpoint to resume from.
+    pub fn new<W: World>(world: &W, config: &CeConfig, checkpointing: Option<&'a Checkpointing>) -> Result<Saver<'a>> {
+        let world_json = world.to_json();
+        let state = match checkpointing {
+            Some(c) => {
+                c.validate()?;
+                if c.resume && c.path.exists() {
+                    let saved = CeCheckpoint::load(&c.path)?;
+                    saved.check_matches(&world_json, config)?;
+                    Some(saved)
+                } else {
+                    None
+                }
+            }
+            None => None,
+        };
+        let state = state.unwrap_or_else(|| CeCheckpoint::fresh(world_json, config));
+        let now = Instant::now();
+        Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now })
+    }
+
+    /// Seconds spent, every session together.
+    pub fn seconds(&self) -> f64 {
+        self.before + self.started.elapsed().as_secs_f64()
+    }
+
+    /// Whether a save is due (always when `force`).
+    fn due(&self, force: bool) -> bool {
+        self.checkpointing.is_some_and(|c| force || self.last_save.elapsed().as_secs_f64() >= c.every)
+    }
+
+    /// Saves the state when checkpointing and a save is due (always when `force`).
+    pub fn save(&mut self, force: bool) -> Result<()> {
+        if let Some(c) = self.checkpointing
+            && self.due(force)
+        {
+            self.state.seconds = self.seconds();
+            self.state.save(&c.path)?;
+            self.last_save = Instant::now();
+        }
+        Ok(())
+    }
+
+    /// Saves the state with the run in progress, `run()`, when a save is due (always when
+    /// `force`); the run is built only then.
+    pub fn save_run(&mut self, force: bool, run: impl FnOnce() -> RunState) -> Result<()> {
+        if self.due(force) {
+            self.state.run = Some(run());
+            let saved = self.save(true);
+            self.state.run = None;
+            saved?;
+        }
+        Ok(())
     }
 }
 

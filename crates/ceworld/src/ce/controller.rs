@@ -27,7 +27,7 @@ use crate::control::{Flow, thread_pool};
 use crate::error::{Error, Result};
 use crate::exact::MAX_STEPS;
 use crate::policy::{Hhmm, Layout};
-use crate::rng::{Purpose, stream, stream_key};
+use crate::rng::{Purpose, restart_seed, stream};
 use crate::world::World;
 use crate::world::pomdp::PomdpWorld;
 
@@ -86,6 +86,11 @@ impl Default for ControllerConfig {
 }
 
 impl ControllerConfig {
+    /// Number of elite controllers, `ceil(ρN)`.
+    pub fn elite_count(&self) -> usize {
+        ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)
+    }
+
     /// Refuses settings out of range, naming the value and what was expected.
     pub fn validate(&self) -> Result<()> {
         if self.nodes == 0 || self.nodes > crate::policy::MAX_LEVEL_SIZE {
@@ -346,9 +351,7 @@ pub fn optimize_controller(
     let started = Instant::now();
     let mut outcome: Option<ControllerOutcome> = None;
     for restart in 0..config.restarts {
-        let seed =
-            if restart == 0 { config.seed } else { stream_key(config.seed, Purpose::Restart, restart as u64, 0) };
-        let run = search.run(seed, restart, started, &mut observe)?;
+        let run = search.run(restart_seed(config.seed, restart), restart, started, &mut observe)?;
         let stop = run.stop;
         outcome = Some(match outcome {
             Some(mut kept) => {
@@ -393,7 +396,7 @@ impl Search<'_> {
         observe: &mut impl FnMut(&ControllerIteration) -> Flow,
     ) -> Result<ControllerOutcome> {
         let config = self.config;
-        let elite_size = ((config.rho * config.samples as f64).ceil() as usize).clamp(1, config.samples);
+        let elite_size = config.elite_count();
         let mut laws = Laws::uniform(config.nodes, self.n_actions, self.y1);
         let mut best: Option<(f64, Controller, usize)> = None;
         let mut history = Vec::new();

@@ -5,7 +5,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::ce::checkpoint::{CeCheckpoint, Checkpointing, FORMAT, FinishedRun, RunState, VERSION};
+use crate::ce::checkpoint::{Checkpointing, FinishedRun, RunState, Saver};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
 use crate::ce::episode::run_recorded;
@@ -15,7 +15,7 @@ use crate::control::{Flow, thread_pool};
 use crate::error::{Error, Result};
 use crate::evaluate::{Evaluation, check_fits, evaluate, selection_mean};
 use crate::policy::Hhmm;
-use crate::rng::{Purpose, stream, stream_key};
+use crate::rng::{Purpose, restart_seed, stream, stream_key};
 use crate::world::World;
 
 /// The elite's counts: integers when the memory is counted as sampled, reals when re-inferred.
@@ -145,10 +145,7 @@ pub fn optimize_with<W: World>(
     let mut interrupted = None;
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
-        let mut run = CeConfig { restarts: 1, ..config.clone() };
-        if restart > 0 {
-            run.seed = stream_key(config.seed, Purpose::Restart, restart as u64, 0);
-        }
+        let mut run = CeConfig { restarts: 1, seed: restart_seed(config.seed, restart), ..config.clone() };
         let resume = saver.state.run.take();
         if let Some(limit) = config.time_limit {
             // A run's time limit is what was left when it started (its records count from there).
@@ -187,71 +184,6 @@ pub fn optimize_with<W: World>(
     result.seconds = saver.seconds();
     result.restart_scores = scores;
     Ok(result)
-}
-
-/// Keeps the checkpoint of a run and saves it when due.
-struct Saver<'a> {
-    checkpointing: Option<&'a Checkpointing>,
-    state: CeCheckpoint,
-    /// Seconds spent by earlier sessions.
-    before: f64,
-    started: Instant,
-    last_save: Instant,
-}
-
-impl<'a> Saver<'a> {
-    /// The state of a fresh run, or the checkpoint to resume from.
-    fn new<W: World>(world: &W, config: &CeConfig, checkpointing: Option<&'a Checkpointing>) -> Result<Saver<'a>> {
-        let world_json = world.to_json();
-        let state = match checkpointing {
-            Some(c) => {
-                c.validate()?;
-                if c.resume && c.path.exists() {
-                    let saved = CeCheckpoint::load(&c.path)?;
-                    saved.check_matches(&world_json, config)?;
-                    Some(saved)
-                } else {
-                    None
-                }
-            }
-            None => None,
-        };
-        let state = state.unwrap_or_else(|| CeCheckpoint {
-            format: FORMAT.into(),
-            version: VERSION,
-            world: world_json,
-            config: config.clone(),
-            restart: 0,
-            finished: Vec::new(),
-            run: None,
-            seconds: 0.0,
-            engine_version: crate::VERSION.into(),
-        });
-        let now = Instant::now();
-        Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now })
-    }
-
-    /// Seconds spent, every session together.
-    fn seconds(&self) -> f64 {
-        self.before + self.started.elapsed().as_secs_f64()
-    }
-
-    /// Whether a save is due (always when `force`).
-    fn due(&self, force: bool) -> bool {
-        self.checkpointing.is_some_and(|c| force || self.last_save.elapsed().as_secs_f64() >= c.every)
-    }
-
-    /// Saves the state when checkpointing.
-    fn save(&mut self, force: bool) -> Result<()> {
-        if let Some(c) = self.checkpointing
-            && self.due(force)
-        {
-            self.state.seconds = self.seconds();
-            self.state.save(&c.path)?;
-            self.last_save = Instant::now();
-        }
-        Ok(())
-    }
 }
 
 /// One run of [`optimize_with`] (its `restarts` is ignored), from `initial` or from the saved
@@ -349,12 +281,12 @@ fn optimize_once<W: World>(
         } else {
             stopping_rule(config, &record, unsuccessful)
         };
-        if saver.due(stop.is_some()) {
-            saver.state.run =
-                Some(RunState { policy: policy.clone(), history: history.clone(), best: best.clone(), unsuccessful });
-            saver.save(true)?;
-            saver.state.run = None;
-        }
+        saver.save_run(stop.is_some(), || RunState {
+            policy: policy.clone(),
+            history: history.clone(),
+            best: best.clone(),
+            unsuccessful,
+        })?;
     }
     let stop = stop.expect("the loop ends with a reason");
     let (_, best_iteration, best_policy) = best.expect("at least one iteration ran");
