@@ -18,7 +18,9 @@ where Python ints and floats are); every other error of the engine is a :class:`
 ``ValueError``): :class:`InvalidArgumentError` (an argument out of its domain),
 :class:`PolicyFormatError` (an invalid policy file or table), :class:`ModelFormatError` (an
 invalid ``.pomdp`` file) and :class:`PolicyMismatchError` (a policy used with a world of other
-sizes, or a model file that changed since the policy was made). A file that cannot be read or written raises the
+sizes, or a model file that changed since the policy was made), :class:`WorldError` (a world
+written in Python that returned an observation out of range or a reward that is not a finite
+number; an exception raised by its own code propagates as itself). A file that cannot be read or written raises the
 built-in ``OSError`` subclass of its errno (``FileNotFoundError``, ``PermissionError``, ...).
 """
 
@@ -35,9 +37,11 @@ from ._core import (
     PolicyFormatError,
     PolicyMismatchError,
     Rollout,
+    WorldError,
 )
 from .controller import ControllerResult, optimize_controller
 from .optimizer import OptimizeResult, optimize
+from .outside import PythonWorld
 from .policy import Policy
 from .pomdp import PomdpWorld
 from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
@@ -62,11 +66,13 @@ __all__ = [
     "PolicyFormatError",
     "PolicyMismatchError",
     "PomdpWorld",
+    "PythonWorld",
     "QLearner",
     "Rollout",
     "TargetTracking",
     "WindowEvaluation",
     "World",
+    "WorldError",
     "__version__",
     "evaluate_windows",
     "optimize",

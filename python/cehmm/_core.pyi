@@ -19,6 +19,8 @@ __all__ = [
     "ModelFormatError",
     "InternalError",
     "World",
+    "WorldError",
+    "OutsideWorld",
     "ExactValue",
     "Policy",
     "Evaluation",
@@ -81,6 +83,9 @@ class ModelFormatError(CehmmError):
 class PolicyMismatchError(CehmmError):
     """A policy whose observation or decision count differs from the world's (``ceworld::Error::Mismatch``)."""
 
+class WorldError(CehmmError):
+    """A world written in Python that returned something outside its shape (``ceworld::Error::World``)."""
+
 # ``ceworld::Error::WrongType`` is raised as ``TypeError``; ``ceworld::Error::Io`` as the built-in
 # ``OSError`` subclass of its errno, with ``filename``.
 
@@ -128,6 +133,28 @@ class World:
     def state_labels(self) -> list[str]: ...
     def exact_optimum(self) -> float: ...
     def model(self) -> dict[str, Any]: ...
+
+@final
+class OutsideWorld:
+    """A world written in Python (``ceworld::world::outside::BatchWorld``), made by ``cehmm.PythonWorld``."""
+
+    def __new__(
+        cls,
+        world: Any,
+        *,
+        observations: int,
+        decisions: int,
+        horizon: int,
+        batched: bool,
+        batch: int,
+        description: dict[str, Any],
+        discount: float,
+        score: Any | None,
+    ) -> OutsideWorld: ...
+    @property
+    def description(self) -> dict[str, Any]: ...
+    @property
+    def batch(self) -> int: ...
 
 @final
 class ExactValue:
@@ -199,13 +226,13 @@ class Policy:
     """``ceworld::PolicyFile``: an HHMM policy with its world and provenance (model §6)."""
 
     @staticmethod
-    def start(world: World, levels: Any, init: str, seed: int) -> Policy: ...
+    def start(world: World | OutsideWorld, levels: Any, init: str, seed: int) -> Policy: ...
     @staticmethod
     def from_tables(
         h0: npt.NDArray[np.float64],
         h1: npt.NDArray[np.float64],
         upper: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]],
-        world: World | None = None,
+        world: World | OutsideWorld | None = None,
         provenance: dict[str, Any] | None = None,
     ) -> Policy: ...
     @staticmethod
@@ -227,8 +254,10 @@ class Policy:
     @property
     def provenance(self) -> dict[str, Any]: ...
     def tables(self) -> TablesDict: ...
-    def evaluate(self, world: World, episodes: int, seed: int, threads: int | None = None) -> Evaluation: ...
-    def rollout(self, world: World, seed: int, episode: int) -> Rollout: ...
+    def evaluate(
+        self, world: World | OutsideWorld, episodes: int, seed: int, threads: int | None = None
+    ) -> Evaluation: ...
+    def rollout(self, world: World | OutsideWorld, seed: int, episode: int) -> Rollout: ...
     def evaluate_exact(self, world: World, horizon: int | None, infinite: bool, tolerance: float) -> ExactValue: ...
     def graph(self, world: World, form: str) -> Any: ...
 
@@ -256,7 +285,7 @@ class OptimizeOutcome:
     def seconds(self) -> float: ...
 
 def optimize(
-    world: World,
+    world: World | OutsideWorld,
     initial: Policy,
     *,
     samples: int,

@@ -8,14 +8,15 @@ import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Union
+from typing import Any, Union
 
 import numpy as np
 
 from . import _core
 from ._core import Evaluation
+from .outside import Score
 from .policy import Policy
-from .world import World, core_world
+from .world import core_world
 
 #: What :func:`optimize` starts from.
 Init = Union[None, str, Policy]
@@ -89,7 +90,7 @@ class OptimizeResult:
 
 
 def optimize(
-    world: World,
+    world: Any,
     levels: Sequence[int] | None = None,
     samples: int = CE_DEFAULTS["samples"],
     rho: float = CE_DEFAULTS["rho"],
@@ -109,6 +110,9 @@ def optimize(
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
     resume: bool = False,
+    score: Score | None = None,
+    discount: float | None = None,
+    horizon: int | None = None,
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (model §3).
 
@@ -118,7 +122,8 @@ def optimize(
     iterations and returns the result so far with ``interrupted`` set (no exception).
 
     Args:
-        world: the world, e.g. ``TargetTracking(case=3)``.
+        world: the world, e.g. ``TargetTracking(case=3)``; or a world written in Python, a
+            Gymnasium environment, an environment id or a factory (see :class:`PythonWorld`).
         levels: memory sizes per level, bottom first (default ``[16, 16]``, or the levels of
             ``init`` when it is a :class:`Policy`): ``[16]`` is memoryless, ``[16, 16]`` an IO-HMM.
         samples: episodes per iteration ``N``.
@@ -158,6 +163,10 @@ def optimize(
             With a checkpoint, a SIGTERM (a scheduler's) that finds its default action stops the
             run like Ctrl-C, saves the checkpoint, then ends the process as SIGTERM asks (status
             143 / -15): rerunning the same call with ``resume=True`` continues it.
+        score: for a world written in Python, an episode's value from its
+            ``(observations, decisions, rewards)`` (default: the sum of the rewards).
+        discount: for a world written in Python, the discount of the default score.
+        horizon: for a world written in Python, the most steps of an episode (default: its own).
 
     Returns:
         an :class:`OptimizeResult`.
@@ -174,10 +183,12 @@ def optimize(
         >>> result.iterations, len(result.history["mean"])
         (5, 5)
     """
+    options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
+    engine_world = core_world(world, **options)
     with _sigterm_interrupts(checkpoint is not None) as terminated:
         raw = _core.optimize(
-            core_world(world),
-            _initial(world, levels, init, seed)._core,
+            engine_world,
+            _initial(engine_world, levels, init, seed)._core,
             samples=samples,
             rho=rho,
             smoothing=smoothing,
@@ -225,7 +236,7 @@ def _sigterm_interrupts(checkpointed: bool) -> Iterator[list[bool]]:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def _initial(world: World, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:
+def _initial(world: Any, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:
     if isinstance(init, Policy):
         if levels is not None and list(levels) != init.levels:
             raise _core.InvalidArgumentError(

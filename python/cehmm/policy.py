@@ -78,13 +78,14 @@ class Policy:
     def from_tables(
         cls,
         tables: Mapping[str, Any],
-        world: World | None = None,
+        world: Any = None,
         provenance: Mapping[str, Any] | None = None,
     ) -> Policy:
         """A policy from its tables (as returned by :attr:`tables`; arrays or nested lists).
 
         The levels, ``Y`` and ``D`` are read from the shapes; every shape, entry and row is then
-        checked. With ``world``, the policy must fit it and is stored with it.
+        checked. With ``world`` (a cehmm world, or one written in Python), the policy must fit it
+        and is stored with it.
 
         Raises:
             PolicyFormatError: a missing table, a wrong shape (the message names the table and the
@@ -174,7 +175,7 @@ class Policy:
 
     def evaluate(
         self,
-        world: World | None = None,
+        world: Any = None,
         episodes: int = 10000,
         seed: int = 0,
         threads: int | None = None,
@@ -182,7 +183,8 @@ class Policy:
         """The reward over ``episodes`` fresh episodes (reproducible from ``seed``, whatever ``threads``).
 
         Args:
-            world: the world (default: the one stored with the policy).
+            world: the world (default: the one stored with the policy); or a world written in
+                Python, a Gymnasium environment (see :class:`~cehmm.PythonWorld`).
             episodes: number of episodes.
             seed: seed of the episodes; episode ``k`` is :meth:`rollout` ``(world, seed, episode=k)``.
             threads: worker threads (default: one per core).
@@ -247,8 +249,11 @@ class Policy:
         """
         return Agent(self._core, seed)
 
-    def rollout(self, world: World | None = None, seed: int = 0, episode: int = 0) -> Rollout:
-        """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``.
+    def rollout(self, world: Any = None, seed: int = 0, episode: int = 0) -> Rollout:
+        """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``
+        (for a world written in Python, run alone: the very episode of :meth:`evaluate` for the
+        episode protocol; for a batched world, the policy's draws of that episode, the world's
+        own of a batch of one; ``x`` is empty, the hidden state being the world's business).
 
         Returns:
             a :class:`Rollout` with ``x`` (T × 8 for target tracking), ``x_labels``, ``y``, ``d``,
@@ -259,7 +264,7 @@ class Policy:
         """
         return self._core.rollout(core_world(self._world(world)), seed, episode)
 
-    def _world(self, world: World | None) -> World:
+    def _world(self, world: Any) -> Any:
         if world is not None:
             return world
         stored = self.world

@@ -134,8 +134,20 @@ def _rebuild(world: dict[str, Any]) -> World:
     return World.from_dict(world)
 
 
-def core_world(world: Any) -> _core.World:
-    """The engine's world behind ``world``, or a ``TypeError``."""
+def core_world(world: Any, **options: Any) -> Any:
+    """The engine's world behind ``world`` (a ``_core.World``, or a ``_core.OutsideWorld`` for a
+    world written in Python: ``options`` are :class:`~cehmm.PythonWorld`'s), or a ``TypeError``."""
+    from .outside import PythonWorld
+
+    if isinstance(world, (_core.World, _core.OutsideWorld)) and not options:
+        return world
     if isinstance(world, World):
+        if options:
+            raise TypeError(
+                f"invalid world options {sorted(options)}: they apply to worlds written in Python; "
+                f"{world!r} has its own reward"
+            )
         return world._core
-    raise TypeError(f"invalid world: {world!r} (expected a cehmm world, e.g. cehmm.TargetTracking(case=3))")
+    if isinstance(world, PythonWorld) and not options:
+        return world._core
+    return PythonWorld(world.world if isinstance(world, PythonWorld) else world, **options)._core

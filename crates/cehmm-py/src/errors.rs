@@ -39,6 +39,13 @@ create_exception!(
     CehmmError,
     "A policy used with a world whose numbers of observations or decisions differ from the policy's."
 );
+create_exception!(
+    cehmm,
+    WorldError,
+    CehmmError,
+    "A world written in Python returned something outside its shape (an observation out of range, \
+     a reward that is not a finite number); the message names the world, the episode and the step."
+);
 
 /// The one mapping of core errors to Python exceptions. `Error::WrongType` becomes `TypeError`;
 /// `Error::Io` the built-in `OSError` subclass of its errno (`FileNotFoundError`, ...), with
@@ -52,6 +59,7 @@ pub fn raise(error: Error) -> PyErr {
         Error::Mismatch(_) | Error::CheckpointMismatch(_) => PolicyMismatchError::new_err(message),
         Error::ModelFormat(_) => ModelFormatError::new_err(message),
         Error::Internal(_) => InternalError::new_err(message),
+        Error::World(_) => WorldError::new_err(message),
         Error::Memory { .. } => PyMemoryError::new_err(message),
         Error::Io { path, source } => match source.raw_os_error() {
             Some(errno) => {

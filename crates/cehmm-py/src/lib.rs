@@ -19,6 +19,7 @@ mod convert;
 mod defaults;
 mod errors;
 mod optimize;
+mod outside;
 mod policy;
 mod qlearn;
 mod results;
@@ -36,9 +37,12 @@ mod _core {
     #[pymodule_export]
     use super::errors::{
         CehmmError, InternalError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError,
+        WorldError,
     };
     #[pymodule_export]
     use super::optimize::{PyOptimizeOutcome, optimize};
+    #[pymodule_export]
+    use super::outside::PyOutsideWorld;
     #[pymodule_export]
     use super::policy::PyPolicy;
     #[pymodule_export]

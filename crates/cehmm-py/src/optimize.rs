@@ -8,14 +8,14 @@ use pyo3::types::PyDict;
 use ceworld::progress::{CeProgress, LiveLine};
 use std::path::PathBuf;
 
-use ceworld::{CeConfig, CeResult, Checkpointing, IterationRecord, PolicyFile, with_world};
+use ceworld::{CeConfig, CeResult, Checkpointing, IterationRecord, PolicyFile};
 
 use crate::convert::{count, flag, optional_count, optional_real, real, seed, text};
 use crate::errors::OrRaise;
+use crate::outside::WorldArg;
 use crate::policy::PyPolicy;
 use crate::results::PyEvaluation;
 use crate::signals::Signals;
-use crate::world::PyWorld;
 
 /// What `optimize` returns (wrapped by `cehmm.OptimizeResult`).
 #[pyclass(module = "cehmm._core", name = "OptimizeOutcome", frozen)]
@@ -102,7 +102,7 @@ impl PyOptimizeOutcome {
 #[allow(clippy::too_many_arguments)]
 pub fn optimize(
     py: Python<'_>,
-    world: &PyWorld,
+    world: &Bound<'_, PyAny>,
     initial: &PyPolicy,
     samples: &Bound<'_, PyAny>,
     rho: &Bound<'_, PyAny>,
@@ -144,29 +144,26 @@ pub fn optimize(
     if checkpointing.is_none() && resume {
         return Err(ceworld::Error::invalid("resume", "True without a checkpoint (give checkpoint=PATH)")).or_raise();
     }
-    let (world, initial) = (&world.world, initial.file.policy.clone());
+    let world = WorldArg::of(world)?;
+    let initial = initial.file.policy.clone();
     let mut signals = Signals::default();
-    let outcome = py.detach(|| {
-        ceworld::catch_panics(|| {
-            with_world!(world, w => {
-                let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
-                let result = ceworld::optimize_with(w, initial, &config, checkpointing.as_ref(), |record| {
-                    if let Some(line) = &mut line {
-                        line.update(record);
-                    }
-                    signals.flow()
-                });
-                if let Some(line) = line {
-                    line.finish();
-                }
-                result.map(|result| PyOptimizeOutcome {
-                    best: PolicyFile::from_result(w, &result, &config),
-                    last: PolicyFile::from_last(w, &result, &config),
-                    result,
-                })
-            })
+    let outcome = world.run(py, |w| {
+        let mut line = progress.then(|| CeProgress::new(config.patience, LiveLine::stderr()));
+        let result = ceworld::optimize_with(w, initial, &config, checkpointing.as_ref(), |record| {
+            if let Some(line) = &mut line {
+                line.update(record);
+            }
+            signals.flow()
+        });
+        if let Some(line) = line {
+            line.finish();
+        }
+        result.map(|result| PyOptimizeOutcome {
+            best: PolicyFile::from_result(w, &result, &config),
+            last: PolicyFile::from_last(w, &result, &config),
+            result,
         })
     });
     signals.finish(py)?;
-    outcome.or_raise()
+    outcome
 }

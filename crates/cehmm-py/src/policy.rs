@@ -14,6 +14,7 @@ use ceworld::{AnyWorld, Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with
 
 use crate::convert::{count, flag, levels, object, optional_count, real, seed, shape_text, text, to_py};
 use crate::errors::{OrRaise, detached, raise};
+use crate::outside::{WorldArg, run_outside};
 use crate::results::{PyEvaluation, PyExactValue, PyRollout};
 use crate::world::PyWorld;
 
@@ -61,15 +62,16 @@ impl PyPolicy {
     /// `levels` sized for `world`.
     #[staticmethod]
     fn start(
-        world: &PyWorld,
+        py: Python<'_>,
+        world: &Bound<'_, PyAny>,
         levels: &Bound<'_, PyAny>,
         init: &Bound<'_, PyAny>,
         seed: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         let init: Init = text("init", init)?.parse().or_raise()?;
         let (sizes, seed) = (self::levels(levels)?, self::seed("seed", seed)?);
-        let policy = with_world!(&world.world, w => init.policy(w, &sizes, seed)).or_raise()?;
-        Ok(Self::new(policy, world.world.to_json(), json!({})))
+        let (policy, world) = WorldArg::of(world)?.run(py, |w| Ok((init.policy(w, &sizes, seed)?, w.description())))?;
+        Ok(Self::new(policy, world, json!({})))
     }
 
     /// A policy from float64 tables; the layout is read from the shapes, then every shape and
@@ -77,10 +79,11 @@ impl PyPolicy {
     #[staticmethod]
     #[pyo3(signature = (h0, h1, upper, world = None, provenance = None))]
     fn from_tables(
+        py: Python<'_>,
         h0: PyReadonlyArrayDyn<'_, f64>,
         h1: PyReadonlyArrayDyn<'_, f64>,
         upper: Vec<(PyReadonlyArrayDyn<'_, f64>, PyReadonlyArrayDyn<'_, f64>)>,
-        world: Option<&PyWorld>,
+        world: Option<&Bound<'_, PyAny>>,
         provenance: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let mut sizes = vec![dim("h0", &h0, 2, "(|M_1|, D)", 0)?];
@@ -103,10 +106,7 @@ impl PyPolicy {
         }
         let policy = Hhmm::from_flat(layout, probs).or_raise()?;
         let world = match world {
-            Some(w) => {
-                with_world!(&w.world, w => check_fits(w, &policy)).or_raise()?;
-                w.world.to_json()
-            }
+            Some(w) => WorldArg::of(w)?.run(py, |w| check_fits(w, &policy).map(|()| w.description()))?,
             None => json!({}),
         };
         Ok(Self::new(policy, world, object("provenance", provenance)?))
@@ -198,7 +198,7 @@ impl PyPolicy {
     fn evaluate(
         &self,
         py: Python<'_>,
-        world: &PyWorld,
+        world: &Bound<'_, PyAny>,
         episodes: &Bound<'_, PyAny>,
         seed: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
@@ -206,16 +206,15 @@ impl PyPolicy {
         let (episodes, seed_, threads) =
             (count("episodes", episodes)?, self::seed("seed", seed)?, optional_count("threads", threads)?);
         ceworld::evaluate::check_episodes(episodes).or_raise()?;
-        let (world, policy) = (&world.world, &self.file.policy);
+        let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
         let pool = thread_pool(threads).or_raise()?;
         // Slices of episodes, the signal handlers run between them: Ctrl-C stops a long
         // evaluation within a slice (raising KeyboardInterrupt); the result does not depend on it.
         let mut rewards = Vec::with_capacity(episodes);
-        for start in (0..episodes).step_by(EVALUATION_SLICE) {
-            let range = start..episodes.min(start + EVALUATION_SLICE);
-            let part = detached(py, || {
-                pool.install(|| with_world!(world, w => ceworld::evaluate::rewards_of(w, policy, range, seed_)))
-            })?;
+        let slice = world.slice(EVALUATION_SLICE);
+        for start in (0..episodes).step_by(slice) {
+            let range = start..episodes.min(start + slice);
+            let part = world.run(py, |w| pool.install(|| ceworld::evaluate::rewards_of(w, policy, range, seed_)))?;
             rewards.extend(part);
             py.check_signals()?;
         }
@@ -228,13 +227,21 @@ impl PyPolicy {
     fn rollout(
         &self,
         py: Python<'_>,
-        world: &PyWorld,
+        world: &Bound<'_, PyAny>,
         seed: &Bound<'_, PyAny>,
         episode: &Bound<'_, PyAny>,
     ) -> PyResult<PyRollout> {
         let (seed, episode) = (self::seed("seed", seed)?, self::seed("episode", episode)?);
-        let (world, policy) = (&world.world, &self.file.policy);
-        let recorded = detached(py, || with_world!(world, w => rollout(w, policy, seed, episode)))?;
+        let policy = &self.file.policy;
+        let recorded = match WorldArg::of(world)? {
+            WorldArg::Engine(w) => {
+                let world = &w.world;
+                detached(py, || with_world!(world, w => rollout(w, policy, seed, episode)))?
+            }
+            WorldArg::Outside(w) => {
+                run_outside(py, &w, |w| ceworld::world::outside::rollout(w, policy, seed, episode))?
+            }
+        };
         Ok(PyRollout(recorded))
     }
 

@@ -42,6 +42,11 @@ pub enum Error {
     /// the file, the line and column, what was found and what was expected.
     #[error("invalid model file {0}")]
     ModelFormat(String),
+    /// A world outside the engine (written in Python) that returned something out of its
+    /// shape (an observation out of range, a reward that is not a finite number) or failed; the
+    /// message names the world, the episode and the step.
+    #[error("{0}")]
+    World(String),
     /// A table (the Q-learning baseline's) that would not fit in the memory the system reports
     /// available; refused before allocating.
     #[error("{what} needs {needed} bytes ({:.2} GiB) but only {available} bytes ({:.2} GiB) are available (MemAvailable in /proc/meminfo, or the cgroup limit)", *needed as f64 / (1u64 << 30) as f64, *available as f64 / (1u64 << 30) as f64)]

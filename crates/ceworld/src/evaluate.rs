@@ -1,9 +1,9 @@
 //! Evaluation of a policy on fresh episodes, and the record of one of them (a rollout).
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::ce::episode::run_with;
+use crate::episodes::{Batch, Episodes};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, stream};
@@ -56,7 +56,7 @@ impl Evaluation {
 pub const MAX_EPISODES: usize = 100_000_000;
 
 /// Rewards of `episodes` fresh episodes (streams `(seed, Evaluate, 0, k)`), in episode order.
-pub fn rewards<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Vec<f64>> {
+pub fn rewards<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Vec<f64>> {
     check_episodes(episodes)?;
     rewards_of(world, policy, 0..episodes, seed)
 }
@@ -71,39 +71,40 @@ pub fn check_episodes(episodes: usize) -> Result<()> {
 
 /// Rewards of the evaluation episodes `range` (streams `(seed, Evaluate, 0, k)`), in order: a
 /// slice of [`rewards`], so that a long evaluation can be cut into slices with the same result.
-pub fn rewards_of<W: World>(world: &W, policy: &Hhmm, range: std::ops::Range<usize>, seed: u64) -> Result<Vec<f64>> {
+pub fn rewards_of<E: Episodes + ?Sized>(
+    world: &E,
+    policy: &Hhmm,
+    range: std::ops::Range<usize>,
+    seed: u64,
+) -> Result<Vec<f64>> {
     check_fits(world, policy)?;
-    Ok(episode_rewards(world, policy, range, seed, Purpose::Evaluate))
+    episode_rewards(world, policy, range, seed, Purpose::Evaluate)
 }
 
 /// Rewards of the episodes of streams `(seed, purpose, 0, k)`, `k` in `range`, in order.
-fn episode_rewards<W: World>(
-    world: &W,
+fn episode_rewards<E: Episodes + ?Sized>(
+    world: &E,
     policy: &Hhmm,
     range: std::ops::Range<usize>,
     seed: u64,
     purpose: Purpose,
-) -> Vec<f64> {
-    range
-        .into_par_iter()
-        .map(|k| {
-            let mut rng = stream(seed, purpose, 0, k as u64);
-            run_with(world, policy, &mut rng, |_, _, _, _, _| {})
-        })
-        .collect()
+) -> Result<Vec<f64>> {
+    let mut values = vec![0.0; range.len()];
+    world.run(policy, seed, purpose, 0, range.start, Batch { values: &mut values, records: None })?;
+    Ok(values)
 }
 
 /// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between
 /// policies that leaves the `Evaluate` episodes fresh for reporting the chosen one.
-pub fn selection_mean<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
+pub fn selection_mean<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
     check_fits(world, policy)?;
     // Summed in episode order, so the score does not depend on the thread count.
-    let total: f64 = episode_rewards(world, policy, 0..episodes, seed, Purpose::Select).iter().sum();
+    let total: f64 = episode_rewards(world, policy, 0..episodes, seed, Purpose::Select)?.iter().sum();
     Ok(total / episodes as f64)
 }
 
 /// Mean, standard error, extremes and quantiles of the reward over fresh episodes.
-pub fn evaluate<W: World>(world: &W, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Evaluation> {
+pub fn evaluate<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize, seed: u64) -> Result<Evaluation> {
     Ok(Evaluation::from_rewards(&rewards(world, policy, episodes, seed)?))
 }
 
@@ -154,15 +155,13 @@ pub fn rollout<W: World>(world: &W, policy: &Hhmm, seed: u64, episode: u64) -> R
 }
 
 /// Checks that the policy's observation and decision counts are the world's.
-pub fn check_fits<W: World>(world: &W, policy: &Hhmm) -> Result<()> {
+pub fn check_fits<E: Episodes + ?Sized>(world: &E, policy: &Hhmm) -> Result<()> {
     let l = policy.layout();
-    if l.n_obs != world.n_observations() || l.n_actions != world.n_decisions() {
+    let shape = world.shape();
+    if l.n_obs != shape.observations || l.n_actions != shape.decisions {
         return Err(Error::Mismatch(format!(
             "the policy has {} observations and {} decisions, the world {} and {}",
-            l.n_obs,
-            l.n_actions,
-            world.n_observations(),
-            world.n_decisions()
+            l.n_obs, l.n_actions, shape.observations, shape.decisions
         )));
     }
     Ok(())

@@ -16,6 +16,7 @@
 
 pub mod ce;
 pub mod control;
+pub mod episodes;
 pub mod error;
 pub mod evaluate;
 pub mod exact;
@@ -33,6 +34,7 @@ pub use ce::controller::{ControllerConfig, ControllerOutcome, optimize_controlle
 pub use ce::init::{Init, clock_policy, random_policy, uniform_policy};
 pub use ce::optimize::{CeResult, IterationRecord, StopReason, optimize, optimize_with};
 pub use control::{Flow, catch_panics, thread_pool};
+pub use episodes::{Episodes, Shape};
 pub use error::{Error, Result};
 pub use evaluate::{Evaluation, evaluate};
 pub use policy::file::PolicyFile;

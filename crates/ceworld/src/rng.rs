@@ -29,6 +29,9 @@ pub enum Purpose {
     Agent = 8,
     /// Episodes of a world stepped from outside ([`crate::world::session::Session`]).
     Session = 9,
+    /// The seed a world outside the engine draws a batch of episodes from
+    /// ([`crate::world::outside`]).
+    Outside = 10,
 }
 
 /// `SplitMix64`'s finaliser: a bijective 64-bit mixer with good avalanche.

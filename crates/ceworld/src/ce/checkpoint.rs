@@ -18,9 +18,9 @@ use serde_json::Value;
 
 use crate::ce::config::CeConfig;
 use crate::ce::optimize::{CeResult, IterationRecord};
+use crate::episodes::Episodes;
 use crate::error::{Error, Result};
 use crate::policy::{Hhmm, Layout};
-use crate::world::World;
 
 /// The `"format"` of a checkpoint file.
 pub const FORMAT: &str = "cehmm-ce-checkpoint";
@@ -206,8 +206,12 @@ pub(crate) struct Saver<'a> {
 
 impl<'a> Saver<'a> {
     /// The state of a fresh run, or the checkpoint to resume from.
-    pub fn new<W: World>(world: &W, config: &CeConfig, checkpointing: Option<&'a Checkpointing>) -> Result<Saver<'a>> {
-        let world_json = world.to_json();
+    pub fn new<E: Episodes + ?Sized>(
+        world: &E,
+        config: &CeConfig,
+        checkpointing: Option<&'a Checkpointing>,
+    ) -> Result<Saver<'a>> {
+        let world_json = world.description();
         let state = match checkpointing {
             Some(c) => {
                 c.validate()?;

@@ -25,13 +25,16 @@ impl Memory {
 }
 
 /// Runs one episode, writing step `t`'s `[y, d, m_1, ..., m_Λ]` at
-/// `record[t * width .. (t + 1) * width]` (`width = Layout::record_width`), and returns `V`.
+/// `record[t * width .. (t + 1) * width]` (`width = Layout::record_width`), and returns `V` and
+/// the number of steps run: the horizon, or fewer where the world ended the episode
+/// ([`World::done`]); the rows after them are left as they were.
 #[inline]
-pub fn run_recorded<W: World>(world: &W, policy: &Hhmm, rng: &mut EngineRng, record: &mut [u16]) -> f64 {
+pub fn run_recorded<W: World>(world: &W, policy: &Hhmm, rng: &mut EngineRng, record: &mut [u16]) -> (f64, usize) {
     let width = policy.layout().record_width();
     let mut buffer = Memory::new(width - 2);
     let memory = buffer.as_mut();
     let mut state = world.reset(rng);
+    let mut steps = 0;
     for (t, step) in record.chunks_exact_mut(width).take(world.horizon()).enumerate() {
         let y = world.observe(&state, rng);
         let d = policy.step(y, memory, t == 0, rng);
@@ -42,12 +45,17 @@ pub fn run_recorded<W: World>(world: &W, policy: &Hhmm, rng: &mut EngineRng, rec
             *slot = m;
         }
         world.step(&mut state, d, rng);
+        steps = t + 1;
+        if world.done(&state) {
+            break;
+        }
     }
-    world.reward(&state)
+    (world.reward(&state), steps)
 }
 
 /// Runs one episode and returns `V`, calling `visit(t, y_t, d_t, m[t], x_t)` at every step
-/// (`t` from 0), before the world moves.
+/// (`t` from 0), before the world moves; the episode stops at the horizon or where the world
+/// ends it ([`World::done`]).
 #[inline]
 pub fn run_with<W: World, F>(world: &W, policy: &Hhmm, rng: &mut EngineRng, mut visit: F) -> f64
 where
@@ -61,6 +69,9 @@ where
         let d = policy.step(y, memory, t == 0, rng);
         visit(t, y, d, memory, &state);
         world.step(&mut state, d, rng);
+        if world.done(&state) {
+            break;
+        }
     }
     world.reward(&state)
 }

@@ -3,10 +3,10 @@
 
 use std::str::FromStr;
 
+use crate::episodes::Episodes;
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, stream};
-use crate::world::World;
 
 /// The starting tables of an optimisation.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -34,7 +34,7 @@ impl Init {
     }
 
     /// The starting policy for `levels` sized for `world` (`seed` draws random tables).
-    pub fn policy<W: World>(self, world: &W, levels: &[usize], seed: u64) -> Result<Hhmm> {
+    pub fn policy<E: Episodes + ?Sized>(self, world: &E, levels: &[usize], seed: u64) -> Result<Hhmm> {
         match self {
             Init::Uniform => uniform_policy(world, levels),
             Init::Random => random_policy(world, levels, seed),
@@ -55,18 +55,18 @@ impl FromStr for Init {
 }
 
 /// A uniform policy for `levels` sized for `world`.
-pub fn uniform_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
-    Hhmm::uniform(world.n_observations(), world.n_decisions(), levels)
+pub fn uniform_policy<E: Episodes + ?Sized>(world: &E, levels: &[usize]) -> Result<Hhmm> {
+    Hhmm::uniform(world.shape().observations, world.shape().decisions, levels)
 }
 
 /// A clock policy (see [`Hhmm::clock`]) for `levels` sized for `world`.
-pub fn clock_policy<W: World>(world: &W, levels: &[usize]) -> Result<Hhmm> {
-    Hhmm::clock(world.n_observations(), world.n_decisions(), levels)
+pub fn clock_policy<E: Episodes + ?Sized>(world: &E, levels: &[usize]) -> Result<Hhmm> {
+    Hhmm::clock(world.shape().observations, world.shape().decisions, levels)
 }
 
 /// A random policy for `levels` sized for `world`, drawn from `seed`.
-pub fn random_policy<W: World>(world: &W, levels: &[usize], seed: u64) -> Result<Hhmm> {
-    Hhmm::random(world.n_observations(), world.n_decisions(), levels, &mut stream(seed, Purpose::Init, 0, 0))
+pub fn random_policy<E: Episodes + ?Sized>(world: &E, levels: &[usize], seed: u64) -> Result<Hhmm> {
+    Hhmm::random(world.shape().observations, world.shape().decisions, levels, &mut stream(seed, Purpose::Init, 0, 0))
 }
 
 #[cfg(test)]

@@ -8,15 +8,14 @@ use serde::{Deserialize, Serialize};
 use crate::ce::checkpoint::{Checkpointing, FinishedRun, RunState, Saver};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
-use crate::ce::episode::run_recorded;
 pub use crate::ce::limits::MAX_RECORD_BYTES;
 use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
 use crate::control::{Flow, thread_pool};
+use crate::episodes::{Batch, Episodes};
 use crate::error::{Error, Result};
 use crate::evaluate::{Evaluation, check_fits, evaluate, selection_mean};
 use crate::policy::Hhmm;
-use crate::rng::{Purpose, restart_seed, stream, stream_key};
-use crate::world::World;
+use crate::rng::{Purpose, restart_seed, stream_key};
 
 /// The elite's counts: integers when the memory is counted as sampled, reals when re-inferred.
 enum Counts {
@@ -108,8 +107,8 @@ impl CeResult {
 /// Runs the cross-entropy method from `initial` until a stopping rule holds, calling
 /// `observer` after every iteration (on the calling thread; iterations count from 0 again at
 /// each restart).
-pub fn optimize<W: World>(
-    world: &W,
+pub fn optimize<E: Episodes + ?Sized>(
+    world: &E,
     initial: Hhmm,
     config: &CeConfig,
     observer: impl FnMut(&IterationRecord) -> Flow,
@@ -122,8 +121,8 @@ pub fn optimize<W: World>(
 /// when it exists: the result is then the one an uninterrupted run gives, bit for bit (the
 /// seconds and a time limit aside). `initial` is used by the runs that have not started.
 #[allow(clippy::needless_pass_by_value)] // taken like `optimize`'s
-pub fn optimize_with<W: World>(
-    world: &W,
+pub fn optimize_with<E: Episodes + ?Sized>(
+    world: &E,
     initial: Hhmm,
     config: &CeConfig,
     checkpointing: Option<&Checkpointing>,
@@ -188,8 +187,8 @@ pub fn optimize_with<W: World>(
 
 /// One run of [`optimize_with`] (its `restarts` is ignored), from `initial` or from the saved
 /// state `resume`.
-fn optimize_once<W: World>(
-    world: &W,
+fn optimize_once<E: Episodes + ?Sized>(
+    world: &E,
     initial: Hhmm,
     config: &CeConfig,
     resume: Option<RunState>,
@@ -201,7 +200,7 @@ fn optimize_once<W: World>(
     }
     let pool = thread_pool(config.threads)?;
     let layout = initial.layout().clone();
-    let horizon = world.horizon();
+    let horizon = world.shape().horizon;
     let stride = horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
     check_iteration_size(n, elite_count, horizon, stride)?;
@@ -224,6 +223,7 @@ fn optimize_once<W: World>(
     let mut stop = history.last().and_then(|r| stopping_rule(config, r, unsuccessful));
     let mut records = vec![0u16; if stop.is_some() { 0 } else { n * stride }];
     let mut rewards = vec![0.0f64; n];
+    let mut lengths = vec![0u32; if stop.is_some() { 0 } else { n }];
     let mut keys = vec![0u64; n];
     let mut order: Vec<usize> = (0..n).collect();
     let chunk = elite_count.div_ceil(pool.current_num_threads()).max(1);
@@ -231,11 +231,9 @@ fn optimize_once<W: World>(
         let iteration = history.len();
         let seed = config.seed;
         pool.install(|| {
-            records.par_chunks_mut(stride).zip(rewards.par_iter_mut()).enumerate().for_each(|(k, (record, reward))| {
-                let mut rng = stream(seed, Purpose::Optimise, iteration as u64, k as u64);
-                *reward = run_recorded(world, &policy, &mut rng, record);
-            });
-        });
+            let batch = Batch { values: &mut rewards, records: Some((&mut records, &mut lengths)) };
+            world.run(&policy, seed, Purpose::Optimise, iteration as u64, 0, batch)
+        })?;
         pool.install(|| {
             keys.par_iter_mut().enumerate().for_each(|(k, key)| {
                 *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
@@ -251,7 +249,8 @@ fn optimize_once<W: World>(
         }
         let elite = &order[..elite_count];
         let threshold = elite.iter().copied().max_by(better).expect("the elite is never empty");
-        let record_of = |k: usize| &records[k * stride..(k + 1) * stride];
+        // Each episode's record up to where it stopped (model §1): counting stops there too.
+        let record_of = |k: usize| &records[k * stride..k * stride + lengths[k] as usize * layout.record_width()];
         let counts = pool.install(|| count_elite(&policy, elite, &record_of, config.memory_update, chunk));
 
         let mean = rewards.iter().sum::<f64>() / n as f64;

@@ -232,7 +232,11 @@ fn show(v: Option<&Value>) -> String {
 
 impl PolicyFile {
     /// The file of an optimisation's best policy, with its provenance (model §6).
-    pub fn from_result<W: crate::World>(world: &W, result: &crate::CeResult, config: &crate::CeConfig) -> PolicyFile {
+    pub fn from_result<E: crate::Episodes + ?Sized>(
+        world: &E,
+        result: &crate::CeResult,
+        config: &crate::CeConfig,
+    ) -> PolicyFile {
         let best = &result.history[result.best_iteration];
         let mut provenance = json!({
                 "seed": config.seed,
@@ -258,13 +262,17 @@ impl PolicyFile {
         if !result.restart_scores.is_empty() {
             provenance["restart_scores"] = json!(result.restart_scores);
         }
-        PolicyFile { policy: result.policy.clone(), world: world.to_json(), provenance }
+        PolicyFile { policy: result.policy.clone(), world: world.description(), provenance }
     }
 
     /// The file of an optimisation's last policy: the provenance of [`PolicyFile::from_result`]
     /// with `"policy": "last"`, without the figures that describe the best policy (its
     /// evaluation and best iteration).
-    pub fn from_last<W: crate::World>(world: &W, result: &crate::CeResult, config: &crate::CeConfig) -> PolicyFile {
+    pub fn from_last<E: crate::Episodes + ?Sized>(
+        world: &E,
+        result: &crate::CeResult,
+        config: &crate::CeConfig,
+    ) -> PolicyFile {
         let mut file = PolicyFile::from_result(world, result, config);
         if let Some(map) = file.provenance.as_object_mut() {
             map.retain(|k, _| !(k == "mean_reward" || k.starts_with("evaluation") || k.starts_with("best_iteration")));

@@ -4,6 +4,7 @@
 use crate::rng::EngineRng;
 
 pub mod cassandra;
+pub mod outside;
 pub mod pomdp;
 pub mod registry;
 pub mod session;
@@ -12,9 +13,10 @@ pub mod tracking;
 /// An episodic world that the optimiser can sample.
 ///
 /// One episode runs, for `t = 1..=horizon()`: `observe` (emits `y_t`), then the policy draws
-/// `d_t`, then `step` (the world accounts for time `t` and moves to `t + 1`). After the last
-/// step, `reward` gives the episode's value `V`, which may depend on the whole episode: the
-/// state is free to carry whatever the reward needs.
+/// `d_t`, then `step` (the world accounts for time `t` and moves to `t + 1`); it ends early
+/// where `done` says so after a step. After the last step, `reward` gives the episode's value
+/// `V`, which may depend on the whole episode: the state is free to carry whatever the reward
+/// needs.
 pub trait World: Sync {
     /// The hidden state `x_t` plus whatever the reward needs to remember.
     type State: Clone + Send;
@@ -33,6 +35,12 @@ pub trait World: Sync {
     fn step(&self, state: &mut Self::State, decision: usize, rng: &mut EngineRng);
     /// The episode's reward `V`, read after the last step.
     fn reward(&self, state: &Self::State) -> f64;
+    /// Whether the episode has ended (read after each step): it stops there, before the horizon,
+    /// and the optimiser counts only the steps it ran (model §1). By default an episode always
+    /// runs to the horizon.
+    fn done(&self, _state: &Self::State) -> bool {
+        false
+    }
 
     /// Names of the numbers `describe` writes for one state (for rollouts and plots).
     fn state_labels(&self) -> Vec<&'static str> {

@@ -94,6 +94,10 @@ impl AnyWorld {
     /// model file): a registered name, known parameters of the right kinds.
     pub fn check_description(value: &Value) -> Result<()> {
         let (name, params) = described(value)?;
+        if name == crate::world::outside::NAME {
+            // A world that runs outside the engine: recorded, not rebuilt.
+            return Ok(());
+        }
         complete(entry(name)?, &params).map(|_| ())
     }
 
@@ -109,6 +113,12 @@ impl AnyWorld {
     /// ones take their defaults; unknown ones are an error).
     pub fn from_json(value: &Value) -> Result<AnyWorld> {
         let (name, params) = described(value)?;
+        if name == crate::world::outside::NAME {
+            return Err(Error::invalid(
+                "world",
+                format!("{value} runs outside the engine (written in Python): pass the world itself"),
+            ));
+        }
         Self::with_params(name, &params)
     }
 

@@ -34,7 +34,7 @@ impl<W: World + Clone> Stepper<W> {
         if decision >= d {
             return Err(Error::invalid("decision", format!("{decision} (expected 0..{d})")));
         }
-        if self.t > self.world.horizon() {
+        if self.over() {
             return Err(Error::invalid("step", "after the last step (reset the episode first)"));
         }
         self.world.step(&mut self.state, decision, &mut self.rng);
@@ -43,7 +43,12 @@ impl<W: World + Clone> Stepper<W> {
         let gained = reward - self.reward;
         self.reward = reward;
         self.observation = self.world.observe(&self.state, &mut self.rng);
-        Ok((self.observation, gained, self.t > self.world.horizon()))
+        Ok((self.observation, gained, self.over()))
+    }
+
+    /// Past the horizon, or ended by the world ([`World::done`]).
+    fn over(&self) -> bool {
+        self.t > self.world.horizon() || self.world.done(&self.state)
     }
 
     fn describe(&self) -> Vec<i64> {
@@ -97,7 +102,7 @@ impl Session {
     }
 
     /// Takes `decision` at step `t`: the next observation, the reward it gained, and whether the
-    /// episode is over (after `horizon` steps).
+    /// episode is over (after `horizon` steps, or where the world ended it).
     pub fn step(&mut self, decision: usize) -> Result<(usize, f64, bool)> {
         with_stepper!(self, s => s.step(decision))
     }

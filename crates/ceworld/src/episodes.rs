@@ -1,0 +1,94 @@
+//! Where the optimiser's and the evaluation's episodes come from: a [`World`] run by the engine,
+//! or a world that runs outside it and is stepped in lockstep batches
+//! ([`crate::world::outside`]). The optimiser, the evaluation and policy files see only this.
+
+use rayon::prelude::*;
+use serde_json::Value;
+
+use crate::ce::episode::{run_recorded, run_with};
+use crate::error::Result;
+use crate::policy::Hhmm;
+use crate::rng::{Purpose, stream};
+use crate::world::World;
+
+/// The sizes an episode source shares with a policy, and its horizon.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// Number of observations `Y`.
+    pub observations: usize,
+    /// Number of decisions `D`.
+    pub decisions: usize,
+    /// Most steps of one episode `T`.
+    pub horizon: usize,
+}
+
+/// The episodes of one call to [`Episodes::run`]: where their values go and, for the
+/// optimiser, their records.
+pub struct Batch<'a> {
+    /// The episodes' values `V`, one per episode (their number is the batch's size).
+    pub values: &'a mut [f64],
+    /// Where given: each episode's record (`horizon · record_width` numbers, [`run_recorded`]'s
+    /// layout) and the number of steps it ran.
+    pub records: Option<(&'a mut [u16], &'a mut [u32])>,
+}
+
+/// A source of episodes of world × policy.
+pub trait Episodes: Sync {
+    /// Observations, decisions, horizon.
+    fn shape(&self) -> Shape;
+    /// The world's name and parameters, as stored in policy files and checkpoints (model §6).
+    fn description(&self) -> Value;
+    /// Runs the episodes `first..first + batch.values.len()` under `policy`, episode `k` drawing
+    /// the policy's (and, for a world run by the engine, the world's) randomness from stream
+    /// `(seed, purpose, iteration, k)`, on the current rayon pool.
+    fn run(
+        &self,
+        policy: &Hhmm,
+        seed: u64,
+        purpose: Purpose,
+        iteration: u64,
+        first: usize,
+        batch: Batch<'_>,
+    ) -> Result<()>;
+}
+
+impl<W: World> Episodes for W {
+    fn shape(&self) -> Shape {
+        Shape { observations: self.n_observations(), decisions: self.n_decisions(), horizon: self.horizon() }
+    }
+
+    fn description(&self) -> Value {
+        self.to_json()
+    }
+
+    fn run(
+        &self,
+        policy: &Hhmm,
+        seed: u64,
+        purpose: Purpose,
+        iteration: u64,
+        first: usize,
+        batch: Batch<'_>,
+    ) -> Result<()> {
+        let rng = |i: usize| stream(seed, purpose, iteration, (first + i) as u64);
+        match batch.records {
+            Some((records, lengths)) => {
+                let stride = self.horizon() * policy.layout().record_width();
+                records
+                    .par_chunks_mut(stride)
+                    .zip(lengths.par_iter_mut())
+                    .zip(batch.values.par_iter_mut())
+                    .enumerate()
+                    .for_each(|(i, ((record, length), value))| {
+                        let (v, steps) = run_recorded(self, policy, &mut rng(i), record);
+                        *value = v;
+                        *length = steps as u32;
+                    });
+            }
+            None => batch.values.par_iter_mut().enumerate().for_each(|(i, value)| {
+                *value = run_with(self, policy, &mut rng(i), |_, _, _, _, _| {});
+            }),
+        }
+        Ok(())
+    }
+}

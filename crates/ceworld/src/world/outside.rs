@@ -1,0 +1,345 @@
+//! Worlds that run outside the engine (written in Python, Gymnasium environments), stepped in
+//! lockstep batches: the world's code is called once per time step for a whole batch of
+//! episodes, the policy's side stays in the engine (parallel, one random stream per episode),
+//! and an episode may end before the horizon (model §1).
+//!
+//! Batches are aligned on the episode index: batch `c` holds the episodes
+//! `c·B .. (c+1)·B` of a stream (`B` = [`BatchWorld::max_batch`]) and the world's own seed for
+//! it is drawn from (seed, purpose, iteration, c), so that a slice of an evaluation that starts
+//! and ends on multiples of `B` gives the episodes of the whole evaluation.
+
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+use serde_json::Value;
+
+use crate::episodes::{Batch, Episodes, Shape};
+use crate::error::{Error, Result};
+use crate::evaluate::{Rollout, check_fits};
+use crate::policy::Hhmm;
+use crate::rng::{EngineRng, Purpose, stream, stream_key};
+
+/// The `"name"` of a world outside the engine in policy files and checkpoints: the engine
+/// records it but cannot rebuild it.
+pub const NAME: &str = "outside";
+
+/// Where one step of a batch writes what the world returned.
+pub struct StepOut<'a> {
+    /// The next observation of each episode.
+    pub observations: &'a mut [i64],
+    /// The reward of the step.
+    pub rewards: &'a mut [f64],
+    /// Whether the episode ended with this step.
+    pub done: &'a mut [bool],
+}
+
+/// One finished episode, as the world's score sees it.
+pub struct Recorded<'a> {
+    /// Its record: `[y, d, m_1, ..., m_Λ]` per step.
+    pub record: &'a [u16],
+    /// Numbers per step of `record`.
+    pub width: usize,
+    /// The reward of each step.
+    pub rewards: &'a [f64],
+}
+
+impl Recorded<'_> {
+    /// The observations `y_1..y_n`.
+    pub fn observations(&self) -> impl Iterator<Item = usize> + '_ {
+        self.record.chunks_exact(self.width).map(|s| usize::from(s[0]))
+    }
+
+    /// The decisions `d_1..d_n`.
+    pub fn decisions(&self) -> impl Iterator<Item = usize> + '_ {
+        self.record.chunks_exact(self.width).map(|s| usize::from(s[1]))
+    }
+}
+
+/// A world that steps a batch of episodes at once, in lockstep.
+pub trait BatchWorld: Send {
+    /// Observations, decisions, most steps per episode.
+    fn shape(&self) -> Shape;
+    /// `{"name": "outside", ...}`: what policy files and checkpoints record of it.
+    fn description(&self) -> Value;
+    /// The most episodes one batch may hold (1: one episode at a time).
+    fn max_batch(&self) -> usize;
+    /// Starts `observations.len()` episodes, the world's randomness drawn from `seed`, writing
+    /// their first observations.
+    fn reset(&mut self, seed: u64, observations: &mut [i64]) -> Result<()>;
+    /// Steps every episode of the batch with its decision (0 for the episodes that have ended,
+    /// whose outputs are ignored).
+    fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> Result<()>;
+    /// Runs `f`, which steps one batch of episodes, on the current thread: a world whose calls
+    /// cost much to enter from a fresh thread (Python's) prepares the thread once here.
+    fn on_thread<R: Send>(f: impl FnOnce() -> R + Send) -> R
+    where
+        Self: Sized,
+    {
+        f()
+    }
+    /// The value `V` of a finished episode: by default the sum of its rewards.
+    fn score(&mut self, episode: &Recorded<'_>) -> Result<f64> {
+        Ok(episode.rewards.iter().sum())
+    }
+}
+
+/// A [`BatchWorld`] as a source of the optimiser's episodes.
+pub struct Lockstep<B> {
+    world: Mutex<B>,
+    shape: Shape,
+    description: Value,
+    batch: usize,
+}
+
+impl<B: BatchWorld> Lockstep<B> {
+    /// The world, its shape checked (at least one observation, decision and step; observations
+    /// and decisions fit the engine's records).
+    pub fn new(world: B) -> Result<Lockstep<B>> {
+        let shape = world.shape();
+        let description = world.description();
+        for (name, value) in [("observations", shape.observations), ("decisions", shape.decisions)] {
+            if value == 0 || value > usize::from(u16::MAX) {
+                return Err(Error::invalid(
+                    format!("{} {name}", label(&description)),
+                    format!("{value} (expected 1..={})", u16::MAX),
+                ));
+            }
+        }
+        if shape.horizon == 0 {
+            return Err(Error::invalid(format!("{} horizon", label(&description)), "0 (expected at least 1 step)"));
+        }
+        let batch = world.max_batch();
+        if batch == 0 {
+            return Err(Error::invalid(format!("{} batch size", label(&description)), "0 (expected at least 1)"));
+        }
+        Ok(Lockstep { world: Mutex::new(world), shape, description, batch })
+    }
+
+    /// The world back (after a run, to read what it kept).
+    pub fn into_inner(self) -> B {
+        self.world.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Runs the episodes `first..first + values.len()`, all inside batch `chunk`.
+    #[allow(clippy::too_many_arguments)]
+    fn run_batch(
+        &self,
+        world: &mut B,
+        policy: &Hhmm,
+        key: (u64, Purpose, u64),
+        chunk: u64,
+        first: usize,
+        values: &mut [f64],
+        records: &mut [u16],
+        lengths: &mut [u32],
+    ) -> Result<()> {
+        let (seed, purpose, iteration) = key;
+        let Shape { observations: n_obs, horizon, .. } = self.shape;
+        let width = policy.layout().record_width();
+        let depth = width - 2;
+        let stride = horizon * width;
+        let n = values.len();
+        let place = |k: usize, t: usize| Place {
+            world: label(&self.description),
+            purpose,
+            iteration,
+            episodes: (first, first + n),
+            episode: k,
+            step: t,
+        };
+        let mut rngs: Vec<EngineRng> = (0..n).map(|i| stream(seed, purpose, iteration, (first + i) as u64)).collect();
+        let mut memory = vec![0u16; n * depth];
+        let mut observations = vec![0i64; n];
+        let mut decisions = vec![0i64; n];
+        let mut rewards = vec![0.0f64; n];
+        let mut done = vec![false; n];
+        let mut alive = vec![true; n];
+        let mut step_rewards = vec![0.0f64; n * horizon];
+        lengths.fill(0);
+        // The world's own seed for this batch, apart from every stream of the policy.
+        let world_seed = stream_key(stream_key(seed, purpose, iteration, chunk), Purpose::Outside, 0, 0) >> 1;
+        world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
+        for t in 0..horizon {
+            for (i, &y) in observations.iter().enumerate() {
+                if alive[i] && !(0..n_obs as i64).contains(&y) {
+                    return Err(place(first + i, t + 1).error(&format!("observation {y} (expected 0..{n_obs})")));
+                }
+            }
+            records
+                .par_chunks_mut(stride)
+                .zip(memory.par_chunks_mut(depth.max(1)))
+                .zip(rngs.par_iter_mut())
+                .zip(decisions.par_iter_mut())
+                .zip(observations.par_iter())
+                .zip(alive.par_iter())
+                .with_min_len(64)
+                .for_each(|(((((record, memory), rng), decision), &y), &alive)| {
+                    if !alive {
+                        *decision = 0;
+                        return;
+                    }
+                    let memory = &mut memory[..depth];
+                    let d = policy.step(y as usize, memory, t == 0, rng);
+                    let row = &mut record[t * width..(t + 1) * width];
+                    row[0] = y as u16;
+                    row[1] = d as u16;
+                    row[2..].copy_from_slice(memory);
+                    *decision = d as i64;
+                });
+            let out = StepOut { observations: &mut observations, rewards: &mut rewards, done: &mut done };
+            world.step(&decisions, out).map_err(|e| place(first, t + 1).wrap(&e))?;
+            for i in 0..n {
+                if !alive[i] {
+                    continue;
+                }
+                if !rewards[i].is_finite() {
+                    return Err(
+                        place(first + i, t + 1).error(&format!("reward {} (expected a finite number)", rewards[i]))
+                    );
+                }
+                step_rewards[i * horizon + t] = rewards[i];
+                lengths[i] = (t + 1) as u32;
+                alive[i] = !done[i];
+            }
+            if !alive.iter().any(|&a| a) {
+                break;
+            }
+        }
+        for (i, value) in values.iter_mut().enumerate() {
+            let steps = lengths[i] as usize;
+            let episode = Recorded {
+                record: &records[i * stride..i * stride + steps * width],
+                width,
+                rewards: &step_rewards[i * horizon..i * horizon + steps],
+            };
+            let v = world.score(&episode).map_err(|e| place(first + i, steps).error(&format!("score: {e}")))?;
+            if !v.is_finite() {
+                return Err(place(first + i, steps).error(&format!("score {v} (expected a finite number)")));
+            }
+            *value = v;
+        }
+        Ok(())
+    }
+}
+
+impl<B: BatchWorld> Episodes for Lockstep<B> {
+    fn shape(&self) -> Shape {
+        self.shape
+    }
+
+    fn description(&self) -> Value {
+        self.description.clone()
+    }
+
+    fn run(
+        &self,
+        policy: &Hhmm,
+        seed: u64,
+        purpose: Purpose,
+        iteration: u64,
+        first: usize,
+        batch: Batch<'_>,
+    ) -> Result<()> {
+        let mut world = self.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let stride = self.shape.horizon * policy.layout().record_width();
+        let n = batch.values.len();
+        let mut scratch = match batch.records {
+            Some(_) => (Vec::new(), Vec::new()),
+            None => (vec![0u16; n.min(self.batch) * stride], vec![0u32; n.min(self.batch)]),
+        };
+        let (records, lengths) = match batch.records {
+            Some(r) => r,
+            None => (&mut scratch.0[..], &mut scratch.1[..]),
+        };
+        let recorded = records.len() >= n * stride;
+        let mut start = 0;
+        while start < n {
+            let k = first + start;
+            let chunk = k / self.batch;
+            let end = n.min((chunk + 1) * self.batch - first);
+            let m = end - start;
+            let (r, l) = if recorded {
+                (&mut records[start * stride..end * stride], &mut lengths[start..end])
+            } else {
+                (&mut records[..m * stride], &mut lengths[..m])
+            };
+            let values = &mut batch.values[start..end];
+            let world = &mut *world;
+            B::on_thread(|| self.run_batch(world, policy, (seed, purpose, iteration), chunk as u64, k, values, r, l))?;
+            start = end;
+        }
+        Ok(())
+    }
+}
+
+/// Episode `episode` of an evaluation with `seed`, run alone and recorded (for a world that
+/// runs one episode at a time, the very episode of the evaluation; for a batched world, the
+/// policy's draws are that episode's and the world's are those of a batch of one). The hidden
+/// state is the world's own business: `x` is empty.
+pub fn rollout<B: BatchWorld>(world: &Lockstep<B>, policy: &Hhmm, seed: u64, episode: u64) -> Result<Rollout> {
+    check_fits(world, policy)?;
+    let mut guard = world.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let width = policy.layout().record_width();
+    let mut record = vec![0u16; world.shape.horizon * width];
+    let (mut value, mut length) = ([0.0], [0u32]);
+    let key = (seed, Purpose::Evaluate, 0);
+    let (k, chunk) = (episode as usize, episode / world.batch as u64);
+    let guard = &mut *guard;
+    B::on_thread(|| world.run_batch(guard, policy, key, chunk, k, &mut value, &mut record, &mut length))?;
+    record.truncate(length[0] as usize * width);
+    let column = |c: usize| record.chunks_exact(width).map(|s| i64::from(s[c])).collect();
+    Ok(Rollout {
+        x_labels: Vec::new(),
+        x: Vec::new(),
+        y: column(0),
+        d: column(1),
+        memory: record.chunks_exact(width).flat_map(|s| s[2..].iter().map(|&m| i64::from(m))).collect(),
+        levels: policy.levels().len(),
+        reward: value[0],
+    })
+}
+
+/// How errors name a world: its `"id"` (a Gymnasium environment's) or its `"class"`.
+fn label(description: &Value) -> String {
+    let text = |key: &str| description.get(key).and_then(Value::as_str).map(str::to_owned);
+    text("id").or_else(|| text("class")).map_or_else(|| format!("world {NAME:?}"), |c| format!("world {c}"))
+}
+
+/// Where something went wrong: which world, which episode (or batch) of which stream, which
+/// step (from 1; 0 is the reset).
+struct Place {
+    world: String,
+    purpose: Purpose,
+    iteration: u64,
+    episodes: (usize, usize),
+    episode: usize,
+    step: usize,
+}
+
+impl Place {
+    fn stream(&self) -> String {
+        match self.purpose {
+            Purpose::Optimise => format!("iteration {}", self.iteration),
+            other => format!("{other:?}").to_lowercase(),
+        }
+    }
+
+    /// An error of one episode.
+    fn error(&self, message: &str) -> Error {
+        Error::World(format!(
+            "{}, episode {} ({}), step {}: {message}",
+            self.world,
+            self.episode,
+            self.stream(),
+            self.step
+        ))
+    }
+
+    /// An error of a call for the whole batch.
+    fn wrap(&self, error: &Error) -> Error {
+        let (a, b) = self.episodes;
+        let episodes = if b == a + 1 { format!("episode {a}") } else { format!("episodes {a}..{b}") };
+        let call = if self.step == 0 { "reset".to_string() } else { format!("step {}", self.step) };
+        Error::World(format!("{}, {episodes} ({}), {call}: {error}", self.world, self.stream()))
+    }
+}

@@ -1,0 +1,291 @@
+//! Episodes that end before the horizon (`World::done`), and worlds that run outside the engine
+//! in lockstep batches (`world::outside`): one deterministic world written both ways gives the
+//! same episodes, the same evaluation and the same optimisation, bit for bit, whatever the batch
+//! size and the thread count; counting stops where an episode stopped; bad values from an
+//! outside world are named by episode and step.
+
+use ceworld::ce::episode::{run_recorded, run_with};
+use ceworld::episodes::Shape;
+use ceworld::evaluate::{rewards, rewards_of};
+use ceworld::rng::{EngineRng, Purpose, stream};
+use ceworld::world::outside::{BatchWorld, Lockstep, Recorded, StepOut, rollout};
+use ceworld::{CeConfig, Error, Flow, World, optimize, random_policy};
+use serde_json::{Value, json};
+
+const HORIZON: usize = 10;
+
+/// Three cells in a ring; decision `d` moves `d + 1` cells; a step is rewarded when `d` is the
+/// cell's parity; the episode ends once 4 rewards are won (or at the horizon). Deterministic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Ring {
+    cell: usize,
+    won: usize,
+    t: usize,
+}
+
+fn ring_step(state: &mut Ring, d: usize) -> f64 {
+    let reward = if d == state.cell % 2 { 1.0 } else { 0.0 };
+    state.won += reward as usize;
+    state.cell = (state.cell + d + 1) % 3;
+    state.t += 1;
+    reward
+}
+
+/// The ring world; with `stop`, every episode also ends after that many steps.
+struct RingOf {
+    horizon: usize,
+    stop: Option<usize>,
+}
+
+const RING: RingOf = RingOf { horizon: HORIZON, stop: None };
+
+impl World for RingOf {
+    type State = Ring;
+    fn n_observations(&self) -> usize {
+        3
+    }
+    fn n_decisions(&self) -> usize {
+        2
+    }
+    fn horizon(&self) -> usize {
+        self.horizon
+    }
+    fn reset(&self, _: &mut EngineRng) -> Ring {
+        Ring { cell: 0, won: 0, t: 0 }
+    }
+    fn observe(&self, state: &Ring, _: &mut EngineRng) -> usize {
+        state.cell
+    }
+    fn step(&self, state: &mut Ring, d: usize, _: &mut EngineRng) {
+        ring_step(state, d);
+    }
+    fn reward(&self, state: &Ring) -> f64 {
+        state.won as f64
+    }
+    fn done(&self, state: &Ring) -> bool {
+        state.won >= 4 || self.stop.is_some_and(|s| state.t >= s)
+    }
+    fn to_json(&self) -> Value {
+        json!({"name": "ring"})
+    }
+}
+
+/// The same world stepped in batches of at most `batch`, as Python code would.
+struct RingBatch {
+    batch: usize,
+    states: Vec<Ring>,
+    /// What to corrupt: (call number, episode in the batch, what).
+    fault: Option<(usize, usize, Fault)>,
+    calls: usize,
+}
+
+#[derive(Clone, Copy)]
+enum Fault {
+    Observation,
+    Reward,
+}
+
+impl RingBatch {
+    fn new(batch: usize) -> RingBatch {
+        RingBatch { batch, states: Vec::new(), fault: None, calls: 0 }
+    }
+}
+
+impl BatchWorld for RingBatch {
+    fn shape(&self) -> Shape {
+        Shape { observations: 3, decisions: 2, horizon: HORIZON }
+    }
+    fn description(&self) -> Value {
+        json!({"name": "outside", "class": "tests.RingBatch"})
+    }
+    fn max_batch(&self) -> usize {
+        self.batch
+    }
+    fn reset(&mut self, _seed: u64, observations: &mut [i64]) -> ceworld::Result<()> {
+        self.states = vec![Ring { cell: 0, won: 0, t: 0 }; observations.len()];
+        observations.fill(0);
+        Ok(())
+    }
+    fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
+        self.calls += 1;
+        for (i, state) in self.states.iter_mut().enumerate() {
+            out.rewards[i] = ring_step(state, decisions[i] as usize);
+            out.observations[i] = state.cell as i64;
+            out.done[i] = state.won >= 4;
+            match self.fault {
+                Some((call, episode, Fault::Observation)) if call == self.calls && episode == i => {
+                    out.observations[i] = 3;
+                }
+                Some((call, episode, Fault::Reward)) if call == self.calls && episode == i => out.rewards[i] = f64::NAN,
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
+
+fn config(threads: usize) -> CeConfig {
+    CeConfig {
+        samples: 200,
+        rho: 0.1,
+        smoothing: 0.5,
+        max_iterations: Some(6),
+        threads: Some(threads),
+        eval_episodes: 500,
+        ..CeConfig::default()
+    }
+}
+
+#[test]
+fn an_episode_stops_where_the_world_ends_it() {
+    let policy = random_policy(&RING, &[3, 2], 1).unwrap();
+    let width = policy.layout().record_width();
+    let mut lengths = Vec::new();
+    for k in 0..200 {
+        let mut record = vec![u16::MAX; HORIZON * width];
+        let (value, steps) = run_recorded(&RING, &policy, &mut stream(0, Purpose::Optimise, 0, k), &mut record);
+        let mut visited = 0;
+        let v = run_with(&RING, &policy, &mut stream(0, Purpose::Optimise, 0, k), |_, _, _, _, _| visited += 1);
+        assert_eq!((v, visited), (value, steps));
+        // Ended by the world (4 rewards, on the last step) or by the horizon; nothing written after.
+        assert!(value == 4.0 && steps <= HORIZON || value < 4.0 && steps == HORIZON, "{value} in {steps} steps");
+        assert!(record[steps * width..].iter().all(|&x| x == u16::MAX));
+        lengths.push(steps);
+    }
+    assert!(lengths.iter().any(|&s| s < HORIZON) && lengths.contains(&HORIZON), "{lengths:?}");
+}
+
+#[test]
+fn counting_stops_where_the_episode_stopped() {
+    // Episodes that the world ends after 4 steps of 10 are counted as episodes of 4 steps: the
+    // optimisation is that of the same world with a horizon of 4, bit for bit. Counting the
+    // rows after the end (left from earlier episodes) would change the tables.
+    let short = RingOf { horizon: 4, stop: None };
+    let stopped = RingOf { horizon: HORIZON, stop: Some(4) };
+    let initial = random_policy(&short, &[3, 2], 8).unwrap();
+    let a = optimize(&short, initial.clone(), &config(2), |_| Flow::Continue).unwrap();
+    let b = optimize(&stopped, initial.clone(), &config(2), |_| Flow::Continue).unwrap();
+    assert_eq!((&a.policy, &a.last_policy, &a.evaluation), (&b.policy, &b.last_policy, &b.evaluation));
+    let full = optimize(&RING, initial, &config(2), |_| Flow::Continue).unwrap();
+    assert_ne!(full.last_policy, b.last_policy);
+}
+
+#[test]
+fn a_batched_world_gives_the_engines_episodes_bit_for_bit() {
+    let policy = random_policy(&RING, &[3, 2], 4).unwrap();
+    let engine = rewards(&RING, &policy, 100, 9).unwrap();
+    for batch in [1, 7, 64, 1000] {
+        let outside = Lockstep::new(RingBatch::new(batch)).unwrap();
+        assert_eq!(rewards(&outside, &policy, 100, 9).unwrap(), engine, "batch {batch}");
+        // A slice that starts on a multiple of the batch size gives the same episodes.
+        let start = if batch < 100 { batch } else { 0 };
+        assert_eq!(rewards_of(&outside, &policy, start..100, 9).unwrap(), engine[start..], "batch {batch}");
+        for k in [0u64, 5, 63] {
+            let alone = rollout(&outside, &policy, 9, k).unwrap();
+            let reference = ceworld::evaluate::rollout(&RING, &policy, 9, k).unwrap();
+            assert_eq!(
+                (&alone.y, &alone.d, &alone.memory, alone.reward),
+                (&reference.y, &reference.d, &reference.memory, reference.reward)
+            );
+        }
+    }
+}
+
+#[test]
+fn a_batched_world_is_optimised_as_the_engine_would_whatever_the_threads() {
+    let initial = random_policy(&RING, &[3, 2], 4).unwrap();
+    let engine = optimize(&RING, initial.clone(), &config(2), |_| Flow::Continue).unwrap();
+    for (batch, threads) in [(1, 1), (16, 2), (200, 1), (200, 2)] {
+        let outside = Lockstep::new(RingBatch::new(batch)).unwrap();
+        let result = optimize(&outside, initial.clone(), &config(threads), |_| Flow::Continue).unwrap();
+        let means = |r: &ceworld::CeResult| -> Vec<_> {
+            r.history.iter().map(|i| (i.mean, i.best, i.elite_threshold, i.elite_mean, i.successful)).collect()
+        };
+        assert_eq!(means(&result), means(&engine), "batch {batch}, threads {threads}");
+        assert_eq!(result.policy, engine.policy, "batch {batch}, threads {threads}");
+        assert_eq!(result.evaluation, engine.evaluation);
+    }
+}
+
+#[test]
+fn bad_values_from_an_outside_world_are_named_by_episode_and_step() {
+    let policy = random_policy(&RING, &[2], 1).unwrap();
+    for (fault, expected) in [(Fault::Observation, "observation 3 (expected 0..3)"), (Fault::Reward, "reward NaN")] {
+        let mut world = RingBatch::new(8);
+        // The third call of `step`: the observation of step 4, or the reward of step 3.
+        world.fault = Some((3, 5, fault));
+        let e = rewards(&Lockstep::new(world).unwrap(), &policy, 20, 0).unwrap_err();
+        let step = if matches!(fault, Fault::Observation) { 4 } else { 3 };
+        let message = e.to_string();
+        assert!(matches!(e, Error::World(_)), "{message}");
+        assert!(
+            message.contains(&format!("world tests.RingBatch, episode 5 (evaluate), step {step}: {expected}")),
+            "{message}"
+        );
+    }
+}
+
+struct Scored(RingBatch);
+
+impl BatchWorld for Scored {
+    fn shape(&self) -> Shape {
+        self.0.shape()
+    }
+    fn description(&self) -> Value {
+        self.0.description()
+    }
+    fn max_batch(&self) -> usize {
+        self.0.max_batch()
+    }
+    fn reset(&mut self, seed: u64, observations: &mut [i64]) -> ceworld::Result<()> {
+        self.0.reset(seed, observations)
+    }
+    fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
+        self.0.step(decisions, out)
+    }
+    /// Not additive: the number of steps with decision 1, minus the episode's length.
+    fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {
+        let ones = episode.decisions().filter(|&d| d == 1).count();
+        assert_eq!(episode.observations().count(), episode.rewards.len());
+        Ok(ones as f64 - episode.rewards.len() as f64)
+    }
+}
+
+#[test]
+fn a_score_sees_the_whole_recorded_episode() {
+    let policy = random_policy(&RING, &[2], 3).unwrap();
+    let values = rewards(&Lockstep::new(Scored(RingBatch::new(16))).unwrap(), &policy, 50, 2).unwrap();
+    for (k, value) in values.iter().enumerate() {
+        let r = ceworld::evaluate::rollout(&RING, &policy, 2, k as u64).unwrap();
+        let ones = r.d.iter().filter(|&&d| d == 1).count();
+        assert_eq!(*value, ones as f64 - r.len() as f64, "episode {k}");
+    }
+}
+
+#[test]
+fn outside_worlds_of_impossible_shapes_are_refused() {
+    struct Empty(usize, usize);
+    impl BatchWorld for Empty {
+        fn shape(&self) -> Shape {
+            Shape { observations: self.0, decisions: 2, horizon: self.1 }
+        }
+        fn description(&self) -> Value {
+            json!({"class": "Empty"})
+        }
+        fn max_batch(&self) -> usize {
+            1
+        }
+        fn reset(&mut self, _: u64, _: &mut [i64]) -> ceworld::Result<()> {
+            Ok(())
+        }
+        fn step(&mut self, _: &[i64], _: StepOut<'_>) -> ceworld::Result<()> {
+            Ok(())
+        }
+    }
+    for (observations, horizon, expected) in
+        [(0, 5, "invalid world Empty observations: 0"), (70_000, 5, "70000"), (3, 0, "invalid world Empty horizon: 0")]
+    {
+        let e = Lockstep::new(Empty(observations, horizon)).err().expect("refused").to_string();
+        assert!(e.contains(expected), "{e}");
+    }
+}

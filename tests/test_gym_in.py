@@ -1,0 +1,128 @@
+"""Gymnasium in (cehmm.gym_adapt): finite spaces flattened to one index both ways, continuous
+ones refused with a hint; environments, ids, factories and vector environments optimised and
+evaluated; a real package's environment that needs memory (popgym) in a short run."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+import cehmm
+from cehmm.gym_adapt import flat
+
+
+@pytest.mark.parametrize(
+    ("space", "size"),
+    [
+        (spaces.Discrete(5, start=-2), 5),
+        (spaces.MultiDiscrete([3, 4]), 12),
+        (spaces.MultiDiscrete([[2, 3], [2, 2]]), 24),
+        (spaces.MultiBinary(3), 8),
+        (spaces.Tuple((spaces.Discrete(2), spaces.MultiDiscrete([3, 2]), spaces.Discrete(3, start=1))), 36),
+    ],
+)
+def test_finite_spaces_flatten_to_one_index_both_ways(space: gym.Space, size: int) -> None:
+    f = flat(space)
+    assert f.size == size
+    values = [f.value(i) for i in range(size)]
+    assert all(space.contains(v) for v in values)
+    assert [f.index(v) for v in values] == list(range(size))
+    space.seed(0)
+    for _ in range(50):
+        sample = space.sample()
+        assert same(f.value(f.index(sample)), sample)
+
+
+def same(a: object, b: object) -> bool:
+    if isinstance(a, tuple) and isinstance(b, tuple):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+    return bool(np.array_equal(a, b))
+
+
+def test_the_flattening_is_row_major() -> None:
+    f = flat(spaces.MultiDiscrete([3, 4]))
+    assert f.index(np.array([1, 2])) == 1 * 4 + 2
+    assert flat(spaces.Tuple((spaces.Discrete(2), spaces.Discrete(3)))).index((1, 0)) == 3
+
+
+def test_continuous_and_other_spaces_are_refused_with_a_hint() -> None:
+    box = gym.make("CartPole-v1")
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"observation space: Box.*is continuous.*Discrete space"):
+        cehmm.PythonWorld(box)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"expected Discrete, MultiDiscrete"):
+        flat(spaces.Dict({"a": spaces.Discrete(2)}))
+
+
+def test_an_environment_an_id_and_a_factory_are_the_same_world() -> None:
+    worlds = [
+        cehmm.PythonWorld(gym.make("FrozenLake-v1", is_slippery=False)),
+        cehmm.PythonWorld("FrozenLake-v1"),
+        cehmm.PythonWorld(lambda: gym.make("FrozenLake-v1")),
+    ]
+    for w in worlds:
+        assert (w.n_observations, w.n_decisions, w.horizon) == (16, 4, 100)
+        assert w.description["id"] == "FrozenLake-v1"
+
+
+def test_a_short_run_learns_a_gymnasium_environment() -> None:
+    env = gym.make("FrozenLake-v1", is_slippery=False)
+    result = cehmm.optimize(
+        env, levels=[16], samples=500, rho=0.05, smoothing=0.3, max_iterations=20, progress=False, eval_episodes=1000
+    )
+    # The uniform random policy reaches the goal in about 1.5 % of episodes.
+    assert result.evaluation.mean > 0.5, result
+    assert result.policy.world["id"] == "FrozenLake-v1"
+
+
+def test_a_vector_environment_is_the_batched_path_with_the_same_episodes_in_distribution() -> None:
+    policy = cehmm.Policy.random(cehmm.PythonWorld(gym.make("FrozenLake-v1")), [4], seed=2)
+    single = policy.evaluate(gym.make("FrozenLake-v1"), episodes=3000, seed=1)
+    vector = gym.make_vec("FrozenLake-v1", num_envs=8, vectorization_mode="sync")
+    world = cehmm.PythonWorld(vector)
+    assert world.batch == 8 and world.horizon == 100
+    batched = policy.evaluate(world, episodes=3000, seed=1)
+    z = (batched.mean - single.mean) / math.hypot(batched.std_error, single.std_error)
+    assert abs(z) < 4, (single, batched)
+    assert policy.evaluate(world, episodes=200, seed=4) == policy.evaluate(world, episodes=200, seed=4)
+
+
+def test_battleship_from_popgym_learns_a_firing_plan_in_a_short_run() -> None:
+    pytest.importorskip("popgym")
+    world = cehmm.PythonWorld(gym.make("popgym-BattleshipEasy-v0"), horizon=64)
+    assert (world.n_observations, world.n_decisions) == (2, 64)  # MultiDiscrete([8, 8]) flattened
+    result = cehmm.optimize(
+        world,
+        levels=[64, 64],
+        init="clock",
+        samples=300,
+        rho=0.1,
+        smoothing=0.5,
+        max_iterations=25,
+        progress=False,
+        eval_episodes=1000,
+    )
+    # Uniform random firing scores -0.45 (examples/gym_memory.py learns -0.01 in 300 iterations).
+    means = result.history["mean"]
+    assert means[-3:].mean() > means[:3].mean() + 0.02, means
+    assert result.evaluation.mean > -0.44
+
+
+def test_a_memory_task_from_popgym_is_optimised() -> None:
+    popgym = pytest.importorskip("popgym")
+    assert popgym is not None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make("popgym-RepeatPreviousEasy-v0", k=2)
+        # 51 steps, then the environment ends the episode: a longer horizon is cut short.
+        world = cehmm.PythonWorld(env, horizon=60)
+        result = cehmm.optimize(
+            world, levels=[16, 4], samples=300, max_iterations=3, progress=False, init="random", eval_episodes=300
+        )
+    assert result.iterations == 3 and -1.0 <= result.evaluation.mean <= 1.0
+    assert len(result.policy.rollout(world)) == 51
+    assert result.policy.world["id"] == "popgym-RepeatPreviousEasy-v0"

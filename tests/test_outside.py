@@ -1,0 +1,210 @@
+"""Worlds written in Python (cehmm.outside): both protocols optimised, evaluated and rolled out;
+a non-additive score; the Python target-tracking worlds agree with the engine's; bad values,
+exceptions and Ctrl-C."""
+
+from __future__ import annotations
+
+import math
+import signal
+import time
+import traceback
+
+import numpy as np
+import pytest
+
+import cehmm
+from cehmm.pyworlds import TrackingBatch, TrackingEpisodes
+
+
+class Corridor:
+    """Cells 0..5, start at 0; decision 1 moves right, 0 left, but the wind reverses a move with
+    probability 0.1. A step's reward is 1 at cell 5. The observation is the cell."""
+
+    n_observations, n_decisions, horizon = 6, 2, 10
+
+    def reset(self, seed: int) -> int:
+        self.rng = np.random.default_rng(seed)
+        self.cell = 0
+        return self.cell
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        move = 1 if decision == 1 else -1
+        if self.rng.random() < 0.1:
+            move = -move
+        self.cell = min(5, max(0, self.cell + move))
+        return self.cell, float(self.cell == 5), False
+
+
+def reached_once(observations: np.ndarray, decisions: np.ndarray, rewards: np.ndarray) -> float:
+    """Non-additive: 1 if the goal was reached at least once (staying there earns nothing more)."""
+    assert len(observations) == len(decisions) == len(rewards)
+    return float(rewards.max() > 0)
+
+
+class Counter:
+    """Batched: the observation is the step (mod 4); decision 1 wins a point; the episode ends
+    after 3 points (early), or at the horizon."""
+
+    batched = True
+    n_observations, n_decisions, horizon = 4, 2, 12
+    max_batch = 64
+
+    def reset(self, n: int, seed: int) -> np.ndarray:
+        self.t = 0
+        self.points = np.zeros(n, dtype=np.int64)
+        return np.zeros(n, dtype=np.int64)
+
+    def step(self, decisions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.t += 1
+        reward = (decisions == 1).astype(np.float64)
+        self.points += decisions == 1
+        return np.full(len(decisions), self.t % 4), reward, self.points >= 3
+
+
+def test_a_python_world_with_a_non_additive_score_beats_a_random_policy_by_a_margin() -> None:
+    world = cehmm.PythonWorld(Corridor(), score=reached_once)
+    random_policy = cehmm.Policy.uniform(world, [1])
+    baseline = random_policy.evaluate(world, episodes=4000).mean
+    result = cehmm.optimize(
+        world, levels=[2], samples=300, rho=0.1, smoothing=0.5, max_iterations=15, progress=False, eval_episodes=4000
+    )
+    # Always right reaches the goal within 10 steps with probability ≈ 0.93 (8 of 10 moves right
+    # despite the wind); a random walk rarely does (≈ 0.17).
+    assert baseline < 0.25
+    assert result.evaluation.mean > baseline + 0.6, (baseline, result.evaluation)
+    assert result.policy.world == {
+        "name": "outside",
+        "class": "test_outside.Corridor",
+        "observations": 6,
+        "decisions": 2,
+        "horizon": 10,
+    }
+
+
+def test_the_python_tracking_worlds_give_the_engines_mean_reward(case3: cehmm.TargetTracking) -> None:
+    policy = cehmm.optimize(case3, levels=[16, 16], samples=300, max_iterations=6, seed=3, progress=False).policy
+    rust = policy.evaluate(case3, episodes=4000, seed=1)
+    for world, episodes in ((TrackingBatch(case=3), 4000), (TrackingEpisodes(case=3), 600)):
+        python = policy.evaluate(world, episodes=episodes, seed=2)
+        z = (python.mean - rust.mean) / math.hypot(python.std_error, rust.std_error)
+        assert abs(z) < 4, (type(world).__name__, python, rust)
+
+
+def test_runs_on_python_worlds_are_reproducible_whatever_the_threads() -> None:
+    runs = [
+        cehmm.optimize(Counter(), levels=[2, 2], samples=200, max_iterations=4, threads=t, progress=False, seed=5)
+        for t in (1, 2, 2)
+    ]
+    for run in runs[1:]:
+        assert np.array_equal(run.history["mean"], runs[0].history["mean"])
+        assert run.policy.to_json() == runs[0].policy.to_json()
+
+
+def test_episodes_end_early_and_rollouts_record_them() -> None:
+    world = cehmm.PythonWorld(Counter())
+    always = cehmm.Policy.from_tables(
+        {"h0": np.array([[0.0, 1.0]]), "h1": np.ones((4, 1, 1)), "upper": []}, world=world
+    )
+    rollout = always.rollout(world, seed=0, episode=3)
+    assert (len(rollout), rollout.reward) == (3, 3.0)
+    assert list(rollout.d) == [1, 1, 1] and list(rollout.y) == [0, 1, 2]
+    assert always.evaluate(world, episodes=100).mean == 3.0
+    assert cehmm.PythonWorld(Counter(), discount=0.5).batch == 64
+    assert always.evaluate(cehmm.PythonWorld(Counter(), discount=0.5), episodes=10).mean == 1.75
+
+
+def test_policies_of_python_worlds_keep_the_world_they_were_made_for(tmp_path) -> None:
+    result = cehmm.optimize(Counter(), levels=[2], samples=100, max_iterations=2, progress=False)
+    path = tmp_path / "policy.json"
+    result.policy.save(path)
+    loaded = cehmm.Policy.load(path)
+    assert loaded.world["class"] == "test_outside.Counter" and loaded.world["name"] == "outside"
+    with pytest.raises(cehmm.InvalidArgumentError, match="outside the engine.*pass the world itself"):
+        loaded.evaluate(episodes=10)
+    assert loaded.evaluate(Counter(), episodes=200).mean == result.policy.evaluate(Counter(), episodes=200).mean
+
+
+class Faulty:
+    n_observations, n_decisions, horizon = 3, 2, 5
+
+    def __init__(self, fault: str) -> None:
+        self.fault = fault
+
+    def reset(self, seed: int) -> object:
+        self.t = 0
+        return "a" if self.fault == "type" else 0
+
+    def step(self, decision: int) -> tuple[object, float, bool]:
+        self.t += 1
+        if self.t == 3 and self.fault == "range":
+            return 3, 0.0, False
+        if self.t == 3 and self.fault == "nan":
+            return 0, math.nan, False
+        if self.t == 4 and self.fault == "raise":
+            raise ZeroDivisionError("the world broke")
+        return 0, 1.0, False
+
+
+@pytest.mark.parametrize(
+    ("fault", "message"),
+    [
+        ("range", r"episode 0 \(iteration 0\), step 4: observation 3 \(expected 0\.\.3\)"),
+        ("nan", r"episode 0 \(iteration 0\), step 3: reward NaN"),
+        ("type", r"episode 0 \(iteration 0\), reset: reset returned observation 'a' \(expected an int\)"),
+    ],
+)
+def test_bad_values_are_named_by_world_episode_and_step(fault: str, message: str) -> None:
+    with pytest.raises(cehmm.WorldError, match=r"^world test_outside\.Faulty, " + message):
+        cehmm.optimize(Faulty(fault), levels=[2], samples=20, max_iterations=1, progress=False)
+
+
+def test_an_exception_inside_a_python_world_propagates_with_its_traceback() -> None:
+    with pytest.raises(ZeroDivisionError, match="the world broke") as raised:
+        cehmm.Policy.uniform(cehmm.PythonWorld(Faulty("raise")), [2]).evaluate(Faulty("raise"), episodes=10)
+    frames = [frame.name for frame in traceback.extract_tb(raised.value.__traceback__)]
+    assert "step" in frames
+    assert any("episode 0 (evaluate), step 4: raised" in note for note in getattr(raised.value, "__notes__", []))
+
+
+def test_worlds_that_are_not_worlds_are_refused() -> None:
+    with pytest.raises(TypeError, match="expected a cehmm world, an object with reset"):
+        cehmm.optimize(object(), progress=False)
+
+    class NoHorizon:
+        n_observations, n_decisions = 2, 2
+
+        def reset(self, seed: int) -> int:
+            return 0
+
+        def step(self, decision: int) -> tuple[int, float, bool]:
+            return 0, 0.0, False
+
+    with pytest.raises(TypeError, match=r"NoHorizon has no attribute 'horizon' \(pass horizon=...\)"):
+        cehmm.PythonWorld(NoHorizon())
+    assert cehmm.PythonWorld(NoHorizon(), horizon=4).horizon == 4
+    with pytest.raises(cehmm.InvalidArgumentError, match="discount: 0 "):
+        cehmm.PythonWorld(Corridor(), discount=0)
+    with pytest.raises(cehmm.InvalidArgumentError, match="tiny observations: 0 "):
+        cehmm.PythonWorld(type("Empty", (NoHorizon,), {"n_observations": 0})(), horizon=4, name="tiny")
+    with pytest.raises(TypeError, match="apply to worlds written in Python"):
+        cehmm.optimize(cehmm.TargetTracking(case=1), score=reached_once, progress=False)
+
+
+class Slow(Corridor):
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        time.sleep(0.0002)
+        return super().step(decision)
+
+
+def test_ctrl_c_stops_a_python_world_run_between_iterations() -> None:
+    def handler(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGALRM, handler)
+    signal.setitimer(signal.ITIMER_REAL, 0.5)
+    try:
+        result = cehmm.optimize(Slow(), levels=[2], samples=30, patience=10**6, max_iterations=10**6, progress=False)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert result.interrupted and result.iterations >= 1
