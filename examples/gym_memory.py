@@ -24,7 +24,7 @@ import numpy as np
 import popgym  # noqa: F401  (registers the popgym-* environments)
 
 import cehmm
-from cehmm.gym_adapt import flat
+import cehmm.gym
 
 ENV_ID = "popgym-BattleshipEasy-v0"
 
@@ -39,17 +39,7 @@ print(
     f"shot counter [64, 64]: {e.mean:+.3f} ± {e.std_error:.3f} ({result.iterations} iterations, {result.seconds:.0f} s)"
 )
 
-# The agent in a Gymnasium loop: observations are already indices (Discrete(2)); decisions are
-# indices of the flattened MultiDiscrete([8, 8]) action space.
-env, actions, agent = gymnasium.make(ENV_ID), flat(gymnasium.make(ENV_ID).action_space), result.policy.agent(seed=0)
-returns = []
-for episode in range(500):
-    observation, _ = env.reset(seed=10_000 + episode)
-    agent.reset()
-    total, done = 0.0, False
-    while not done:
-        observation, reward, terminated, truncated, _ = env.step(actions.value(agent.act(observation)))
-        total += float(reward)
-        done = terminated or truncated
-    returns.append(total)
-print(f"Gymnasium loop, 500 episodes: {np.mean(returns):+.3f} ± {np.std(returns, ddof=1) / np.sqrt(500):.3f}")
+# The agent in a Gymnasium loop (cehmm.gym.play maps observations and actions through the
+# flattening of the environment's spaces: here MultiDiscrete([8, 8]) actions).
+returns = cehmm.gym.play(gymnasium.make(ENV_ID), result.policy.agent(seed=0), episodes=500, seed=10_000)
+print(f"Gymnasium loop, 500 episodes: {returns.mean():+.3f} ± {returns.std(ddof=1) / np.sqrt(500):.3f}")

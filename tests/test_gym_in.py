@@ -13,6 +13,7 @@ import pytest
 from gymnasium import spaces
 
 import cehmm
+import cehmm.gym
 from cehmm.gym_adapt import flat
 
 
@@ -110,6 +111,10 @@ def test_battleship_from_popgym_learns_a_firing_plan_in_a_short_run() -> None:
     means = result.history["mean"]
     assert means[-3:].mean() > means[:3].mean() + 0.02, means
     assert result.evaluation.mean > -0.44
+    # Back out as an agent in a Gymnasium loop: actions unflattened to MultiDiscrete([8, 8]).
+    returns = cehmm.gym.play(gym.make("popgym-BattleshipEasy-v0"), result.policy.agent(seed=1), episodes=400)
+    z = (returns.mean() - result.evaluation.mean) / math.hypot(returns.std() / 20, result.evaluation.std_error)
+    assert abs(z) < 4, (returns.mean(), result.evaluation)
 
 
 def test_a_memory_task_from_popgym_is_optimised() -> None:

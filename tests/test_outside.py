@@ -203,8 +203,36 @@ def test_ctrl_c_stops_a_python_world_run_between_iterations() -> None:
     previous = signal.signal(signal.SIGALRM, handler)
     signal.setitimer(signal.ITIMER_REAL, 0.5)
     try:
-        result = cehmm.optimize(Slow(), levels=[2], samples=30, patience=10**6, max_iterations=10**6, progress=False)
+        result = cehmm.optimize(
+            Slow(), levels=[2], samples=30, patience=10**6, max_iterations=10**6, eval_episodes=50, progress=False
+        )
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
     assert result.interrupted and result.iterations >= 1
+
+
+class Short(Counter):
+    """Returns one observation too few, or floats, from a batched step."""
+
+    def __init__(self, fault: str) -> None:
+        self.fault = fault
+
+    def step(self, decisions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        observations, rewards, done = super().step(decisions)
+        if self.fault == "short":
+            return observations[1:], rewards, done
+        return observations + 0.5, rewards, done
+
+
+@pytest.mark.parametrize(
+    ("fault", "message"),
+    [
+        ("short", r"episodes 0\.\.20 \(evaluate\), step 1: step returned observation: 19 values \(expected 20, "),
+        ("float", r"episodes 0\.\.20 \(evaluate\), step 1: step returned observation array\(\[1\.5.*expected ints"),
+    ],
+)
+def test_a_batched_world_returning_the_wrong_shape_or_type_is_named(fault: str, message: str) -> None:
+    policy = cehmm.Policy.uniform(cehmm.PythonWorld(Counter()), [2])
+    with pytest.raises(cehmm.WorldError, match=r"^world test_outside\.Short, " + message):
+        policy.evaluate(Short(fault), episodes=20)

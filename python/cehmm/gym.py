@@ -97,7 +97,8 @@ class TargetTrackingEnv(gymnasium.Env[np.int64, np.int64]):
 def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.ndarray:
     """The return of each of ``episodes`` episodes of ``agent`` (e.g. :meth:`cehmm.Policy.agent`)
     in ``env``: episode ``k`` resets the environment with ``seed + k`` and the agent, then steps
-    until it is terminated or truncated.
+    until it is terminated or truncated. Observations and actions go through the flattening of
+    the environment's spaces (:mod:`cehmm.gym_adapt`), so any finite spaces work.
 
     Example:
         >>> env = gymnasium.make(ENV_ID, case=1)
@@ -105,13 +106,17 @@ def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.nda
         >>> play(env, agent, episodes=3).shape
         (3,)
     """
+    from .gym_adapt import Flat
+
+    observations, actions = Flat(env.observation_space, "observation"), Flat(env.action_space, "action")
     returns = np.empty(episodes)
     for k in range(episodes):
         observation, _ = env.reset(seed=seed + k)
         agent.reset()
         total, done = 0.0, False
         while not done:
-            observation, reward, terminated, truncated, _ = env.step(agent.act(observation))
+            action = actions.value(agent.act(observations.index(observation)))
+            observation, reward, terminated, truncated, _ = env.step(action)
             total += float(reward)
             done = terminated or truncated
         returns[k] = total

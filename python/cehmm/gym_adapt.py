@@ -97,9 +97,9 @@ class Flat:
         return (np.asarray(digits) + self._offset).astype(self.space.dtype).reshape(self.space.shape)
 
 
-def flat(space: Any) -> Flat:
-    """The flattening of a finite Gymnasium space (module docstring)."""
-    return Flat(space, "observation")
+def flat(space: Any, role: str = "observation") -> Flat:
+    """The flattening of a finite Gymnasium space (module docstring); ``role`` names it in errors."""
+    return Flat(space, role)
 
 
 class _Adapted:

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 from . import _core
+from .outside import PythonWorld
 
 
 class World:
@@ -137,8 +138,6 @@ def _rebuild(world: dict[str, Any]) -> World:
 def core_world(world: Any, **options: Any) -> Any:
     """The engine's world behind ``world`` (a ``_core.World``, or a ``_core.OutsideWorld`` for a
     world written in Python: ``options`` are :class:`~cehmm.PythonWorld`'s), or a ``TypeError``."""
-    from .outside import PythonWorld
-
     if isinstance(world, (_core.World, _core.OutsideWorld)) and not options:
         return world
     if isinstance(world, World):

@@ -154,7 +154,7 @@ fn copy<T: numpy::Element + Copy>(what: &str, array: &Bound<'_, PyAny>, out: &mu
     let view = array.readonly();
     let slice = view.as_slice().map_err(|e| e.to_string())?;
     if slice.len() != out.len() {
-        return Err(format!("{} {what} (expected {}, one per episode)", slice.len(), out.len()));
+        return Err(format!("{what}: {} values (expected {}, one per episode)", slice.len(), out.len()));
     }
     out.copy_from_slice(slice);
     Ok(())
@@ -236,10 +236,10 @@ impl BatchWorld for PyBatch {
             PyBatch::ints(py, "step returned observation", &obs, out.observations).map_err(Error::World)?;
             let rewards = array(py, &reward, "float64", "same_kind")
                 .map_err(|_| Error::World(format!("step returned reward {} (expected numbers)", short(&reward))))?;
-            copy("rewards", &rewards, out.rewards).map_err(Error::World)?;
+            copy("step returned rewards", &rewards, out.rewards).map_err(Error::World)?;
             let flags = |v: &Bound<'_, PyAny>, out: &mut [bool]| -> ceworld::Result<()> {
                 let a = array(py, v, "bool", "unsafe").map_err(|e| Error::World(e.to_string()))?;
-                copy("done flags", &a, out).map_err(Error::World)
+                copy("step returned done", &a, out).map_err(Error::World)
             };
             flags(&terminated, out.done)?;
             if let Some(truncated) = truncated {
