@@ -1,5 +1,5 @@
 """Property tests of the Python API's arguments (Hypothesis): whatever values and types are passed,
-``optimize``, ``optimize_controller``, ``Policy.evaluate`` and ``World`` either work or raise
+``optimize``, ``optimize_controller``, ``Policy.evaluate``, ``World`` and ``PythonWorld`` either work or raise
 ``TypeError`` or :class:`cehmm.CehmmError`, naming the argument; never a panic, a crash, or another
 exception. The example count is kept small for CI; ``HYPOTHESIS_PROFILE=long`` runs many more."""
 
@@ -79,3 +79,30 @@ def test_world_parameters(parameters: dict[str, Any]) -> None:
         assert not isinstance(e, cehmm.InternalError), e
         # A smaller grid can put a default position off it: the error then names that position.
         _named(e, set(parameters) | {"start_b", "start_c", "target_cell", "target_rows"})
+
+
+class _Tiny:
+    """A world written in Python whose sizes Hypothesis sets."""
+
+    def __init__(self, sizes: dict[str, Any]) -> None:
+        self.n_observations, self.n_decisions, self.horizon = 2, 2, 3
+        self.__dict__.update(sizes)
+
+    def reset(self, seed: int) -> int:
+        return 0
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        return 1, 1.0, False
+
+
+@given(
+    st.dictionaries(st.sampled_from(["n_observations", "n_decisions", "horizon"]), ANY, max_size=2),
+    st.dictionaries(st.sampled_from(["discount", "horizon", "name"]), ANY, max_size=2),
+)
+def test_python_world_arguments(sizes: dict[str, Any], options: dict[str, Any]) -> None:
+    try:
+        world = cehmm.PythonWorld(_Tiny(sizes), **options)
+        cehmm.Policy.uniform(world, [2]).evaluate(world, episodes=3)
+    except (TypeError, cehmm.CehmmError) as e:
+        assert not isinstance(e, cehmm.InternalError), e
+        _named(e, set(sizes) | set(options) | {"observations", "decisions", "horizon", "world", "policy"})

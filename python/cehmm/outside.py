@@ -105,6 +105,8 @@ class PythonWorld:
         else:
             description["class"] = f"{type(world).__module__}.{type(world).__qualname__}"
         if name is not None:
+            if not isinstance(name, str):
+                raise TypeError(f"invalid name: {name!r} is {type(name).__name__} (expected a str)")
             description["class"] = name
         batched = bool(getattr(world, "batched", False))
         if horizon is None:

@@ -289,3 +289,32 @@ fn outside_worlds_of_impossible_shapes_are_refused() {
         assert!(e.contains(expected), "{e}");
     }
 }
+
+#[test]
+fn horizons_and_batches_beyond_the_memory_are_refused_before_allocating() {
+    struct Long(usize, usize);
+    impl BatchWorld for Long {
+        fn shape(&self) -> Shape {
+            Shape { observations: 2, decisions: 2, horizon: self.0 }
+        }
+        fn description(&self) -> Value {
+            json!({"class": "Long"})
+        }
+        fn max_batch(&self) -> usize {
+            self.1
+        }
+        fn reset(&mut self, _: u64, _: &mut [i64]) -> ceworld::Result<()> {
+            Ok(())
+        }
+        fn step(&mut self, _: &[i64], _: StepOut<'_>) -> ceworld::Result<()> {
+            Ok(())
+        }
+    }
+    let e = Lockstep::new(Long(1 << 62, 1)).err().expect("refused").to_string();
+    assert!(e.contains("invalid world Long horizon: 4611686018427387904 (expected 1..=1000000 steps)"), "{e}");
+    // 10^6 steps for a batch of 10^6 episodes: 8 TB of step rewards, refused by the memory check.
+    let world = Lockstep::new(Long(1_000_000, 1_000_000_000)).unwrap();
+    let policy = random_policy(&world, &[2], 0).unwrap();
+    let e = rewards(&world, &policy, 1_000_000, 0).unwrap_err();
+    assert!(matches!(e, Error::Memory { .. }), "{e}");
+}

@@ -23,6 +23,9 @@ use crate::rng::{EngineRng, Purpose, stream, stream_key};
 /// records it but cannot rebuild it.
 pub const NAME: &str = "outside";
 
+/// The longest episode of a world outside the engine (as the engine's own worlds).
+pub const MAX_HORIZON: usize = 1_000_000;
+
 /// Where one step of a batch writes what the world returned.
 pub struct StepOut<'a> {
     /// The next observation of each episode.
@@ -105,8 +108,11 @@ impl<B: BatchWorld> Lockstep<B> {
                 ));
             }
         }
-        if shape.horizon == 0 {
-            return Err(Error::invalid(format!("{} horizon", label(&description)), "0 (expected at least 1 step)"));
+        if shape.horizon == 0 || shape.horizon > MAX_HORIZON {
+            return Err(Error::invalid(
+                format!("{} horizon", label(&description)),
+                format!("{} (expected 1..={MAX_HORIZON} steps)", shape.horizon),
+            ));
         }
         let batch = world.max_batch();
         if batch == 0 {
@@ -243,6 +249,13 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         let mut world = self.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let stride = self.shape.horizon * policy.layout().record_width();
         let n = batch.values.len();
+        // A batch's own buffers (step rewards, records when the caller keeps none), checked
+        // before they are allocated.
+        let m = n.min(self.batch) as u64;
+        let scratch = if batch.records.is_some() { 0 } else { 2 * stride as u64 };
+        let bytes = m * (8 * self.shape.horizon as u64 + scratch);
+        let what = format!("a batch of {m} episodes of {} steps", self.shape.horizon);
+        crate::memory::check_memory(&what, bytes, crate::memory::available_memory())?;
         let mut scratch = match batch.records {
             Some(_) => (Vec::new(), Vec::new()),
             None => (vec![0u16; n.min(self.batch) * stride], vec![0u32; n.min(self.batch)]),
