@@ -15,6 +15,7 @@ from gymnasium import spaces
 import cehmm
 import cehmm.gym
 from cehmm.gym_adapt import flat
+from cehmm.world import core_world
 
 
 @pytest.mark.parametrize(
@@ -68,6 +69,8 @@ def test_an_environment_an_id_and_a_factory_are_the_same_world() -> None:
     for w in worlds:
         assert (w.n_observations, w.n_decisions, w.horizon) == (16, 4, 100)
         assert w.description["id"] == "FrozenLake-v1"
+    # Options given later wrap what was given, not its adapter: the id is kept.
+    assert core_world(worlds[0], discount=0.9).description["id"] == "FrozenLake-v1"
 
 
 def test_a_short_run_learns_a_gymnasium_environment() -> None:

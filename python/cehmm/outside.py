@@ -88,6 +88,8 @@ class PythonWorld:
         discount: float = 1.0,
         name: str | None = None,
     ) -> None:
+        #: What was given (an environment, its id, a factory...), before any adapting.
+        self.world = world
         if isinstance(world, str) or _is_factory(world):
             from .gym_adapt import make_env
 
@@ -111,7 +113,6 @@ class PythonWorld:
         batched = bool(getattr(world, "batched", False))
         if horizon is None:
             horizon = _attribute(world, "horizon", description)
-        self.world = world
         self.score = score
         self._core = _core.OutsideWorld(
             world,
