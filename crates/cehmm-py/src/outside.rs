@@ -258,7 +258,7 @@ impl BatchWorld for PyBatch {
     }
 
     fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {
-        let Some(score) = self.world.score.as_ref().map(|s| Python::attach(|py| s.clone_ref(py))) else {
+        if self.world.score.is_none() {
             let mut factor = 1.0;
             let mut total = 0.0;
             for r in episode.rewards {
@@ -266,7 +266,7 @@ impl BatchWorld for PyBatch {
                 factor *= self.world.discount;
             }
             return Ok(total);
-        };
+        }
         Python::attach(|py| {
             let column = |values: Vec<i64>| PyArray1::from_vec(py, values);
             let args = (
@@ -274,8 +274,8 @@ impl BatchWorld for PyBatch {
                 column(episode.decisions().map(|d| d as i64).collect()),
                 PyArray1::from_slice(py, episode.rewards),
             );
-            let called = score.bind(py).call1(args);
-            let value = called.map_err(|e| self.keep(py, e))?;
+            let score = self.world.score.as_ref().expect("checked above");
+            let value = score.bind(py).call1(args).map_err(|e| self.keep(py, e))?;
             value
                 .extract::<f64>()
                 .map_err(|_| Error::World(format!("score returned {} (expected a number)", short(&value))))

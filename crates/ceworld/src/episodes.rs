@@ -8,8 +8,31 @@ use serde_json::Value;
 use crate::ce::episode::{run_recorded, run_with};
 use crate::error::Result;
 use crate::policy::Hhmm;
-use crate::rng::{Purpose, stream};
+use crate::rng::{EngineRng, Purpose, stream, stream_key};
 use crate::world::World;
+
+/// The random streams of a set of episodes: episode `k` draws from `(seed, purpose, iteration, k)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Streams {
+    /// The run's seed.
+    pub seed: u64,
+    /// What the episodes are for.
+    pub purpose: Purpose,
+    /// The optimiser's iteration (0 outside the optimiser).
+    pub iteration: u64,
+}
+
+impl Streams {
+    /// The generator of episode `k`.
+    pub fn episode(self, k: usize) -> EngineRng {
+        stream(self.seed, self.purpose, self.iteration, k as u64)
+    }
+
+    /// A 64-bit key for index `k` of these streams (see [`stream_key`]).
+    pub fn key(self, k: u64) -> u64 {
+        stream_key(self.seed, self.purpose, self.iteration, k)
+    }
+}
 
 /// The sizes an episode source shares with a policy, and its horizon.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,17 +62,9 @@ pub trait Episodes: Sync {
     /// The world's name and parameters, as stored in policy files and checkpoints (model §6).
     fn description(&self) -> Value;
     /// Runs the episodes `first..first + batch.values.len()` under `policy`, episode `k` drawing
-    /// the policy's (and, for a world run by the engine, the world's) randomness from stream
-    /// `(seed, purpose, iteration, k)`, on the current rayon pool.
-    fn run(
-        &self,
-        policy: &Hhmm,
-        seed: u64,
-        purpose: Purpose,
-        iteration: u64,
-        first: usize,
-        batch: Batch<'_>,
-    ) -> Result<()>;
+    /// the policy's (and, for a world run by the engine, the world's) randomness from
+    /// `streams.episode(k)`, on the current rayon pool.
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()>;
 }
 
 impl<W: World> Episodes for W {
@@ -61,16 +76,8 @@ impl<W: World> Episodes for W {
         self.to_json()
     }
 
-    fn run(
-        &self,
-        policy: &Hhmm,
-        seed: u64,
-        purpose: Purpose,
-        iteration: u64,
-        first: usize,
-        batch: Batch<'_>,
-    ) -> Result<()> {
-        let rng = |i: usize| stream(seed, purpose, iteration, (first + i) as u64);
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+        let rng = |i: usize| streams.episode(first + i);
         match batch.records {
             Some((records, lengths)) => {
                 let stride = self.horizon() * policy.layout().record_width();

@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use crate::ce::episode::run_with;
-use crate::episodes::{Batch, Episodes};
+use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, stream};
@@ -90,7 +90,8 @@ fn episode_rewards<E: Episodes + ?Sized>(
     purpose: Purpose,
 ) -> Result<Vec<f64>> {
     let mut values = vec![0.0; range.len()];
-    world.run(policy, seed, purpose, 0, range.start, Batch { values: &mut values, records: None })?;
+    let streams = Streams { seed, purpose, iteration: 0 };
+    world.run(policy, streams, range.start, Batch { values: &mut values, records: None })?;
     Ok(values)
 }
 

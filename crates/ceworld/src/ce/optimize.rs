@@ -11,7 +11,7 @@ use crate::ce::counting::count_episode;
 pub use crate::ce::limits::MAX_RECORD_BYTES;
 use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
 use crate::control::{Flow, thread_pool};
-use crate::episodes::{Batch, Episodes};
+use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::{Evaluation, check_fits, evaluate, selection_mean};
 use crate::policy::Hhmm;
@@ -232,7 +232,7 @@ fn optimize_once<E: Episodes + ?Sized>(
         let seed = config.seed;
         pool.install(|| {
             let batch = Batch { values: &mut rewards, records: Some((&mut records, &mut lengths)) };
-            world.run(&policy, seed, Purpose::Optimise, iteration as u64, 0, batch)
+            world.run(&policy, Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 }, 0, batch)
         })?;
         pool.install(|| {
             keys.par_iter_mut().enumerate().for_each(|(k, key)| {

@@ -13,11 +13,11 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 use serde_json::Value;
 
-use crate::episodes::{Batch, Episodes, Shape};
+use crate::episodes::{Batch, Episodes, Shape, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::{Rollout, check_fits};
 use crate::policy::Hhmm;
-use crate::rng::{EngineRng, Purpose, stream, stream_key};
+use crate::rng::{EngineRng, Purpose, stream_key};
 
 /// The `"name"` of a world outside the engine in policy files and checkpoints: the engine
 /// records it but cannot rebuild it.
@@ -132,14 +132,13 @@ impl<B: BatchWorld> Lockstep<B> {
         &self,
         world: &mut B,
         policy: &Hhmm,
-        key: (u64, Purpose, u64),
+        streams: Streams,
         chunk: u64,
         first: usize,
         values: &mut [f64],
         records: &mut [u16],
         lengths: &mut [u32],
     ) -> Result<()> {
-        let (seed, purpose, iteration) = key;
         let Shape { observations: n_obs, horizon, .. } = self.shape;
         let width = policy.layout().record_width();
         let depth = width - 2;
@@ -147,13 +146,12 @@ impl<B: BatchWorld> Lockstep<B> {
         let n = values.len();
         let place = |k: usize, t: usize| Place {
             world: label(&self.description),
-            purpose,
-            iteration,
+            streams,
             episodes: (first, first + n),
             episode: k,
             step: t,
         };
-        let mut rngs: Vec<EngineRng> = (0..n).map(|i| stream(seed, purpose, iteration, (first + i) as u64)).collect();
+        let mut rngs: Vec<EngineRng> = (0..n).map(|i| streams.episode(first + i)).collect();
         let mut memory = vec![0u16; n * depth];
         let mut observations = vec![0i64; n];
         let mut decisions = vec![0i64; n];
@@ -163,7 +161,7 @@ impl<B: BatchWorld> Lockstep<B> {
         let mut step_rewards = vec![0.0f64; n * horizon];
         lengths.fill(0);
         // The world's own seed for this batch, apart from every stream of the policy.
-        let world_seed = stream_key(stream_key(seed, purpose, iteration, chunk), Purpose::Outside, 0, 0) >> 1;
+        let world_seed = stream_key(streams.key(chunk), Purpose::Outside, 0, 0) >> 1;
         world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
         for t in 0..horizon {
             for (i, &y) in observations.iter().enumerate() {
@@ -173,7 +171,7 @@ impl<B: BatchWorld> Lockstep<B> {
             }
             records
                 .par_chunks_mut(stride)
-                .zip(memory.par_chunks_mut(depth.max(1)))
+                .zip(memory.par_chunks_mut(depth))
                 .zip(rngs.par_iter_mut())
                 .zip(decisions.par_iter_mut())
                 .zip(observations.par_iter())
@@ -184,7 +182,6 @@ impl<B: BatchWorld> Lockstep<B> {
                         *decision = 0;
                         return;
                     }
-                    let memory = &mut memory[..depth];
                     let d = policy.step(y as usize, memory, t == 0, rng);
                     let row = &mut record[t * width..(t + 1) * width];
                     row[0] = y as u16;
@@ -237,48 +234,38 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         self.description.clone()
     }
 
-    fn run(
-        &self,
-        policy: &Hhmm,
-        seed: u64,
-        purpose: Purpose,
-        iteration: u64,
-        first: usize,
-        batch: Batch<'_>,
-    ) -> Result<()> {
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
         let mut world = self.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let stride = self.shape.horizon * policy.layout().record_width();
         let n = batch.values.len();
         // A batch's own buffers (step rewards, records when the caller keeps none), checked
         // before they are allocated.
-        let m = n.min(self.batch) as u64;
+        let m = n.min(self.batch);
         let scratch = if batch.records.is_some() { 0 } else { 2 * stride as u64 };
-        let bytes = m * (8 * self.shape.horizon as u64 + scratch);
+        let bytes = m as u64 * (8 * self.shape.horizon as u64 + scratch);
         let what = format!("a batch of {m} episodes of {} steps", self.shape.horizon);
         crate::memory::check_memory(&what, bytes, crate::memory::available_memory())?;
-        let mut scratch = match batch.records {
-            Some(_) => (Vec::new(), Vec::new()),
-            None => (vec![0u16; n.min(self.batch) * stride], vec![0u32; n.min(self.batch)]),
+        // Without the caller's records, each batch reuses buffers of one batch.
+        let (mut own_records, mut own_lengths);
+        let (records, lengths, kept) = if let Some((records, lengths)) = batch.records {
+            (records, lengths, true)
+        } else {
+            (own_records, own_lengths) = (vec![0u16; m * stride], vec![0u32; m]);
+            (&mut own_records[..], &mut own_lengths[..], false)
         };
-        let (records, lengths) = match batch.records {
-            Some(r) => r,
-            None => (&mut scratch.0[..], &mut scratch.1[..]),
-        };
-        let recorded = records.len() >= n * stride;
         let mut start = 0;
         while start < n {
             let k = first + start;
             let chunk = k / self.batch;
             let end = n.min((chunk + 1) * self.batch - first);
-            let m = end - start;
-            let (r, l) = if recorded {
+            let (r, l) = if kept {
                 (&mut records[start * stride..end * stride], &mut lengths[start..end])
             } else {
-                (&mut records[..m * stride], &mut lengths[..m])
+                (&mut records[..(end - start) * stride], &mut lengths[..end - start])
             };
             let values = &mut batch.values[start..end];
             let world = &mut *world;
-            B::on_thread(|| self.run_batch(world, policy, (seed, purpose, iteration), chunk as u64, k, values, r, l))?;
+            B::on_thread(|| self.run_batch(world, policy, streams, chunk as u64, k, values, r, l))?;
             start = end;
         }
         Ok(())
@@ -295,10 +282,10 @@ pub fn rollout<B: BatchWorld>(world: &Lockstep<B>, policy: &Hhmm, seed: u64, epi
     let width = policy.layout().record_width();
     let mut record = vec![0u16; world.shape.horizon * width];
     let (mut value, mut length) = ([0.0], [0u32]);
-    let key = (seed, Purpose::Evaluate, 0);
+    let streams = Streams { seed, purpose: Purpose::Evaluate, iteration: 0 };
     let (k, chunk) = (episode as usize, episode / world.batch as u64);
     let guard = &mut *guard;
-    B::on_thread(|| world.run_batch(guard, policy, key, chunk, k, &mut value, &mut record, &mut length))?;
+    B::on_thread(|| world.run_batch(guard, policy, streams, chunk, k, &mut value, &mut record, &mut length))?;
     record.truncate(length[0] as usize * width);
     let column = |c: usize| record.chunks_exact(width).map(|s| i64::from(s[c])).collect();
     Ok(Rollout {
@@ -322,8 +309,7 @@ fn label(description: &Value) -> String {
 /// step (from 1; 0 is the reset).
 struct Place {
     world: String,
-    purpose: Purpose,
-    iteration: u64,
+    streams: Streams,
     episodes: (usize, usize),
     episode: usize,
     step: usize,
@@ -331,8 +317,8 @@ struct Place {
 
 impl Place {
     fn stream(&self) -> String {
-        match self.purpose {
-            Purpose::Optimise => format!("iteration {}", self.iteration),
+        match self.streams.purpose {
+            Purpose::Optimise => format!("iteration {}", self.streams.iteration),
             other => format!("{other:?}").to_lowercase(),
         }
     }
