@@ -1,14 +1,18 @@
 """The cross-entropy search over deterministic controllers (model §8) from Python: it reaches
 tiger's optimum, its value is the exact value of the policy it returns, it is deterministic
-whatever the threads, and it refuses what it cannot search."""
+whatever the threads; on sampled values it takes every world (the engine's, Python's in both
+protocols), reaches the optimum of tasks that need memory, reports a value from fresh episodes,
+and refuses what it cannot search."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import cehmm
+from cehmm.memory_tasks import RepeatFirst, RepeatPrevious, TMaze
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "pomdp"
 
@@ -36,8 +40,10 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
         "best",
         "concentration",
         "evaluated",
+        "injected",
         "seconds",
     }
+    assert result.kind == "exact" and result.evaluation is None
     assert len(h["best"]) == len(h["mean"]) and h["best"][-1] == result.value
     assert result.stop_reason == "patience" and not result.interrupted
 
@@ -52,11 +58,130 @@ def test_results_do_not_depend_on_threads_and_restarts_keep_the_best(tiger: cehm
 
 
 def test_what_cannot_be_searched_is_refused(tiger: cehmm.PomdpWorld) -> None:
-    with pytest.raises(TypeError, match="PomdpWorld"):
-        cehmm.optimize_controller(cehmm.TargetTracking(case=1), progress=False)  # type: ignore[arg-type]
+    with pytest.raises(cehmm.InvalidArgumentError, match="exact values need a tabular world"):
+        cehmm.optimize_controller(cehmm.TargetTracking(case=1), value="exact", progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="exact values need a cehmm.PomdpWorld"):
+        cehmm.optimize_controller(TMaze(2), value="exact", progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match='value: "approximate"'):
+        cehmm.optimize_controller(tiger, value="approximate", progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match='template: "latch"'):
+        cehmm.optimize_controller(tiger, template="latch", progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="template_weight: 1"):
+        cehmm.optimize_controller(tiger, template_weight=1.0, progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="episodes: 0"):
+        cehmm.optimize_controller(tiger, value="sampled", episodes=0, progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match="candidates: 3000"):
+        cehmm.optimize_controller(tiger, candidates=3000, progress=False)
+    with pytest.raises(TypeError, match="invalid world"):
+        cehmm.optimize_controller(42, progress=False)
     with pytest.raises(cehmm.InvalidArgumentError, match="rho: 2"):
         cehmm.optimize_controller(tiger, rho=2.0, progress=False)
     with pytest.raises(TypeError, match="nodes"):
         cehmm.optimize_controller(tiger, nodes="3", progress=False)  # type: ignore[arg-type]
     with pytest.raises(cehmm.InvalidArgumentError, match="nodes: 0"):
         cehmm.optimize_controller(tiger, nodes=0, progress=False)
+
+
+def test_a_t_maze_is_solved_on_sampled_values_and_valued_on_fresh_episodes() -> None:
+    maze = TMaze(corridor=4)
+    result = cehmm.optimize_controller(maze, nodes=6, samples=500, rho=0.05, template="hold", progress=False)
+    assert result.kind == "sampled"
+    assert result.value == result.evaluation.mean == pytest.approx(maze.optimum)
+    # The evaluation is the policy's own, on the fresh episodes of Policy.evaluate.
+    again = result.policy.evaluate(maze, episodes=result.evaluation.episodes, seed=0)
+    assert again.mean == result.evaluation.mean
+    assert result.policy.provenance["value"] == "sampled"
+    assert result.policy.provenance["evaluation_mean"] == result.value
+    # Without memory, the junction is a coin toss: the best memoryless policy gets 0.
+    memoryless = cehmm.optimize(maze, levels=[3], samples=500, max_iterations=30, progress=False)
+    assert memoryless.evaluation.mean < 0.2
+
+
+def test_repeat_first_is_held_from_a_hold_template() -> None:
+    # POPGym's RepeatFirst (the first suit held for 51 steps): the optimum, 1.
+    result = cehmm.optimize_controller(
+        RepeatFirst(), nodes=6, samples=500, rho=0.05, episodes=40, template="hold", patience=20, progress=False
+    )
+    assert result.value == pytest.approx(1.0)
+    # Naming the current card: right at the first step, then when a card has the first's suit
+    # (12 of the other 51).
+    assert RepeatFirst().memoryless == pytest.approx(2 * (1 + 50 * 12 / 51) / 51 - 1)
+
+
+class _Coin:
+    """A deterministic world in both protocols: observe the step's parity, paid for naming it."""
+
+    n_observations, n_decisions, horizon = 2, 2, 6
+
+    def reset(self, seed: int) -> int:
+        self.t = 0
+        return 0
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        reward = float(decision == self.t % 2)
+        self.t += 1
+        return self.t % 2, reward, False
+
+
+class _CoinBatch(_Coin):
+    batched = True
+    max_batch = 5
+
+    def reset(self, n: int, seed: int) -> np.ndarray:  # type: ignore[override]
+        self.t = 0
+        return np.zeros(n, dtype=np.int64)
+
+    def step(self, decisions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # type: ignore[override]
+        rewards = (decisions == self.t % 2).astype(float)
+        self.t += 1
+        n = len(decisions)
+        return np.full(n, self.t % 2), rewards, np.zeros(n, dtype=bool)
+
+
+def test_both_protocols_and_every_thread_count_give_the_same_search() -> None:
+    settings = dict(nodes=2, samples=50, episodes=3, max_iterations=4, eval_episodes=20, select_episodes=10)
+    results = [
+        cehmm.optimize_controller(world, threads=threads, progress=False, **settings)
+        for world in (_Coin(), _CoinBatch())
+        for threads in (1, 2)
+    ]
+    reference = results[0]
+    for other in results[1:]:
+        assert other.value == reference.value and other.run_values == reference.run_values
+        assert np.array_equal(other.history["best"], reference.history["best"])
+    assert reference.value == 6.0
+
+
+def test_the_engines_worlds_are_searched_on_sampled_values() -> None:
+    world = cehmm.TargetTracking(case=1)
+    settings = dict(nodes=4, samples=300, episodes=2, max_iterations=6, eval_episodes=10, progress=False)
+    one = cehmm.optimize_controller(world, threads=1, **settings)
+    two = cehmm.optimize_controller(world, threads=2, **settings)
+    assert one.kind == "sampled" and one.value == two.value
+    assert np.array_equal(one.history["max"], two.history["max"])
+    # Case 1 is deterministic: the value is the policy's, and no better than the optimum, 86.
+    assert one.value == one.policy.evaluate(world, episodes=10).mean <= 86
+    # A tabular world on sampled values: the value of fresh episodes, near its exact value.
+    tiger = cehmm.PomdpWorld.from_file(DATA / "tiger.95.POMDP", horizon=100, reward="belief")
+    sampled = cehmm.optimize_controller(tiger, nodes=2, samples=200, value="sampled", max_iterations=3, progress=False)
+    exact = sampled.policy.evaluate_exact(tiger).value
+    assert abs(sampled.value - exact) < 4 * sampled.evaluation.std_error + 1e-9
+
+
+def test_a_worlds_exception_comes_back_as_itself() -> None:
+    class Broken(_Coin):
+        def step(self, decision: int) -> tuple[int, float, bool]:
+            if self.t == 3:
+                raise KeyError("the world broke")
+            return super().step(decision)
+
+    with pytest.raises(KeyError, match="the world broke") as raised:
+        cehmm.optimize_controller(Broken(), nodes=2, samples=10, episodes=2, progress=False)
+    assert any("controller 0, episode 0" in note for note in raised.value.__notes__)
+
+
+def test_repeat_previous_pays_only_the_memory_of_the_last_cards() -> None:
+    world = RepeatPrevious()
+    # A policy that names the current card is right by chance only (k = 4 looks 3 cards back).
+    policy = cehmm.optimize_controller(world, nodes=1, samples=4, episodes=1, max_iterations=1, progress=False)
+    assert -0.6 < policy.value < -0.4

@@ -316,6 +316,10 @@ class ControllerOutcome:
     @property
     def value(self) -> float: ...
     @property
+    def kind(self) -> str: ...
+    @property
+    def evaluation(self) -> Evaluation | None: ...
+    @property
     def history(self) -> HistoryDict: ...
     @property
     def stop_reason(self) -> str: ...
@@ -331,7 +335,7 @@ class ControllerOutcome:
     def seconds(self) -> float: ...
 
 def optimize_controller(
-    world: World,
+    world: World | OutsideWorld,
     *,
     nodes: int,
     samples: int,
@@ -345,6 +349,15 @@ def optimize_controller(
     threads: int | None,
     restarts: int,
     progress: bool,
+    value: str | None = None,
+    episodes: int | None = None,
+    candidates: int | None = None,
+    select_episodes: int | None = None,
+    eval_episodes: int | None = None,
+    injection: float | None = None,
+    injections: int | None = None,
+    template: str | None = None,
+    template_weight: float | None = None,
 ) -> ControllerOutcome: ...
 
 @final

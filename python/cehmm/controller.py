@@ -1,15 +1,17 @@
-"""The cross-entropy method over deterministic controllers of a tabular world (model §8):
-:func:`optimize_controller` and its :class:`ControllerResult`."""
+"""The cross-entropy method over deterministic controllers of any world, valued exactly on a
+tabular world or from sampled episodes on any (model §8): :func:`optimize_controller` and its
+:class:`ControllerResult`."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from . import _core
+from .outside import Score
 from .policy import Policy
-from .pomdp import PomdpWorld
 from .world import core_world
 
 #: The engine's defaults (one home: ``ceworld::ControllerConfig::default()``).
@@ -24,24 +26,33 @@ class ControllerResult:
         policy: the best controller, as a two-level policy ``[nodes, nodes]`` with one-hot
             tables (so :meth:`Policy.evaluate`, :meth:`Policy.evaluate_exact` and
             :meth:`Policy.graph` take it as it is).
-        value: its exact value: infinite-horizon when the world's discount is below 1 (to
-            ``tolerance``), else at the world's horizon.
+        value: its value. Exact (``kind == "exact"``): infinite-horizon when the world's
+            discount is below 1 (to ``tolerance``), else at the world's horizon. Sampled: the
+            mean of ``evaluation``, on fresh episodes it was not chosen on.
+        kind: ``"exact"`` or ``"sampled"``.
+        evaluation: sampled values: the controller on ``eval_episodes`` fresh episodes (the
+            same as ``policy.evaluate(eval_episodes, seed)``); ``None`` on exact values.
         history: one numpy array per statistic, one entry per iteration of every run in order:
-            ``restart``, ``iteration`` (int64), ``mean``, ``elite_min``, ``max``, ``best``
-            (exact values), ``concentration`` (mean largest probability of the laws' rows: 1
-            when every draw is the same controller), ``evaluated`` (controllers evaluated: fewer
-            than ``samples`` when the time limit cut the iteration) and ``seconds``.
+            ``restart``, ``iteration`` (int64), ``mean``, ``elite_min``, ``max`` (the
+            iteration's values: exact, or means over its ``episodes`` episodes), ``best`` (the
+            best so far: exact, or on the selection episodes), ``concentration`` (mean largest
+            probability of the laws' rows: 1 when every draw is the same controller),
+            ``evaluated`` (controllers evaluated: fewer than ``samples`` when the time limit
+            cut the iteration), ``injected`` (bool: the laws were mixed with the uniform law
+            after this iteration) and ``seconds``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
             ``"time_limit"`` or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
         best_iteration: the iteration that drew the best controller, within its run.
         restart: the run that found it.
-        run_values: the best value of each run.
+        run_values: the best value of each run (exact, or on the selection episodes).
         seconds: wall time.
     """
 
     policy: Policy
     value: float
+    kind: str
+    evaluation: _core.Evaluation | None
     history: dict[str, np.ndarray]
     stop_reason: str
     interrupted: bool
@@ -52,15 +63,17 @@ class ControllerResult:
 
     def __repr__(self) -> str:
         return (
-            f"ControllerResult(value={self.value:.6f}, nodes={self.policy.levels[0]}, "
+            f"ControllerResult(value={self.value:.6f} ({self.kind}), nodes={self.policy.levels[0]}, "
             f"stop_reason={self.stop_reason!r}, runs={len(self.run_values)}, seconds={self.seconds:.1f})"
         )
 
 
 def optimize_controller(
-    world: PomdpWorld,
+    world: Any,
     nodes: int = CONTROLLER_DEFAULTS["nodes"],
     *,
+    value: str | None = None,
+    episodes: int = CONTROLLER_DEFAULTS["episodes"],
     samples: int = CONTROLLER_DEFAULTS["samples"],
     rho: float = CONTROLLER_DEFAULTS["rho"],
     smoothing: float = CONTROLLER_DEFAULTS["smoothing"],
@@ -71,45 +84,85 @@ def optimize_controller(
     seed: int = CONTROLLER_DEFAULTS["seed"],
     threads: int | None = None,
     restarts: int = CONTROLLER_DEFAULTS["restarts"],
+    candidates: int = CONTROLLER_DEFAULTS["candidates"],
+    select_episodes: int = CONTROLLER_DEFAULTS["select_episodes"],
+    eval_episodes: int = CONTROLLER_DEFAULTS["eval_episodes"],
+    injection: float = CONTROLLER_DEFAULTS["injection"],
+    injections: int = CONTROLLER_DEFAULTS["injections"],
+    template: str = CONTROLLER_DEFAULTS["template"],
+    template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     progress: bool = True,
+    score: Score | None = None,
+    discount: float | None = None,
+    horizon: int | None = None,
 ) -> ControllerResult:
-    """Searches a deterministic ``nodes``-node controller of a tabular world by the cross-entropy
-    method over whole controllers, each ranked by its exact value (model §8).
+    """Searches a deterministic ``nodes``-node controller of ``world`` by the cross-entropy
+    method over whole controllers (model §8).
 
     Each iteration draws ``samples`` controllers from independent categorical laws (each node's
-    action, each node's successor after each observation), computes their exact values, keeps
-    the best ``ceil(rho · samples)`` (leaving out ties at the threshold when some controllers
-    beat it) and refits the laws (``p := smoothing · frequency + (1 − smoothing) · p``). A run
-    stops after ``patience`` iterations without a better controller or a higher elite
-    threshold. Where :func:`optimize` learns from sampled episodes of any world, this needs a
-    :class:`PomdpWorld` and finds better controllers on the small files that need memory
-    (shuttle, 4x3: docs/benchmarks.md). The same seed and settings give the same result bit for
-    bit, whatever ``threads``. Ctrl-C stops between iterations and returns the result so far
-    with ``interrupted`` set.
+    decision, each node's successor after each observation), values them, keeps the best
+    ``ceil(rho · samples)`` (leaving out ties at the threshold when some controllers beat it)
+    and refits the laws (``p := smoothing · frequency + (1 − smoothing) · p``). A run stops
+    after ``patience`` iterations without a better controller or a higher elite threshold.
+
+    On a :class:`PomdpWorld` the values are exact by default. On every other world (the
+    engine's, a world written in Python, a Gymnasium environment, an id, a factory or a vector
+    environment: whatever :func:`optimize` takes), and on a :class:`PomdpWorld` with
+    ``value="sampled"``, each controller's value is the mean of ``episodes`` episodes shared by
+    every controller of the iteration (common random numbers: new ones each iteration). The
+    iteration's best ``candidates`` controllers are then scored again on ``select_episodes``
+    fixed selection episodes, the best so far is the best there, and the controller returned is
+    valued on ``eval_episodes`` fresh episodes (its ``evaluation``): the maximum of noisy
+    estimates is not what is reported. Where :func:`optimize` learns memory only slowly from
+    sampled episodes, a controller holds an observation as long as it pays (docs/benchmarks.md).
+    The same seed and settings give the same result bit for bit, whatever ``threads``. Ctrl-C
+    stops between iterations and returns the result so far with ``interrupted`` set.
 
     Args:
-        world: a :class:`PomdpWorld`.
+        world: any world :func:`optimize` takes.
         nodes: nodes of the controller.
+        value: ``"exact"`` (a :class:`PomdpWorld` only; its default) or ``"sampled"`` (the
+            default of every other world).
+        episodes: sampled values: episodes per controller and iteration.
         samples: controllers per iteration.
         rho: selective rate, ``0 < rho < 1``.
         smoothing: ``0 < smoothing <= 1``.
-        patience: iterations without progress before a run stops.
+        patience: iterations without progress before a run stops (or, with ``injections``
+            left, escapes).
         max_iterations: stop a run after this many iterations.
         time_limit: stop after this many seconds (all runs together), checked before each
-            controller's evaluation; an iteration it cuts does not refit the laws.
-        tolerance: absolute tolerance of each infinite-horizon value.
+            controller's evaluation on exact values, before each iteration on sampled ones; an
+            iteration it cuts does not refit the laws.
+        tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
+            counts as progress.
         seed: seed of every random stream.
         threads: worker threads (default: one per core).
         restarts: independent runs (the first with ``seed``); the best controller of all is
-            returned (values are exact, so the choice has no selection bias).
+            returned (exact values, or the best on the selection episodes).
+        candidates: sampled values: controllers of each iteration scored on the selection
+            episodes.
+        select_episodes: sampled values: the selection episodes.
+        eval_episodes: sampled values: the fresh episodes of ``evaluation``.
+        injection: the weight of the uniform law mixed into every law at an escape.
+        injections: escapes per run: when patience runs out, mix the uniform law in and go on
+            (0: stop).
+        template: the memory the laws start from: ``"uniform"``, ``"hold"`` (a latch: every
+            node but the start node stays where it is), ``"clock"`` (node ``q`` moves on to
+            ``q + 1``) or ``"mixed"`` (both); the search keeps of it what pays.
+        template_weight: the template's weight in the first successor laws, ``0 <= w < 1``.
         progress: print a live progress line on stderr.
+        score: for a world written in Python, an episode's value from its
+            ``(observations, decisions, rewards)`` (default: the sum of the rewards).
+        discount: for a world written in Python, the discount of the default score.
+        horizon: for a world written in Python, the most steps of an episode (default: its own).
 
     Returns:
         a :class:`ControllerResult`.
 
     Raises:
-        TypeError: ``world`` is not a :class:`PomdpWorld`, or an argument has the wrong type.
-        InvalidArgumentError: an argument out of its domain; the message names it and its value.
+        TypeError: ``world`` is not a world, or an argument has the wrong type.
+        InvalidArgumentError: an argument out of its domain (``value="exact"`` on a world that
+            is not tabular among them); the message names it and its value.
 
     Example:
         >>> tiger = PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=100)
@@ -117,10 +170,9 @@ def optimize_controller(
         >>> round(result.value, 2)  # doctest: +SKIP
         19.37
     """
-    if not isinstance(world, PomdpWorld):
-        raise TypeError(f"invalid world: {world!r} (expected a cehmm.PomdpWorld)")
+    options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
     raw = _core.optimize_controller(
-        core_world(world),
+        core_world(world, **options),
         nodes=nodes,
         samples=samples,
         rho=rho,
@@ -133,10 +185,21 @@ def optimize_controller(
         threads=threads,
         restarts=restarts,
         progress=progress,
+        value=value,
+        episodes=episodes,
+        candidates=candidates,
+        select_episodes=select_episodes,
+        eval_episodes=eval_episodes,
+        injection=injection,
+        injections=injections,
+        template=template,
+        template_weight=template_weight,
     )
     return ControllerResult(
         policy=Policy(raw.policy),
         value=raw.value,
+        kind=raw.kind,
+        evaluation=raw.evaluation,
         history=dict(raw.history),
         stop_reason=raw.stop_reason,
         interrupted=raw.interrupted,

@@ -1,21 +1,23 @@
 //! `cehmm._core.optimize_controller`: the cross-entropy method over deterministic controllers of
-//! a tabular world (model §8), its result a frozen `ControllerOutcome`.
+//! any world, on exact or sampled values (model §8), its result a frozen `ControllerOutcome`.
 
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use ceworld::ce::controller::{
-    ControllerConfig, ControllerIteration, ControllerOutcome, optimize_controller as search,
+    ControllerConfig, ControllerIteration, ControllerOutcome, Template, ValueKind, Valued,
+    optimize_controller as search,
 };
 use ceworld::progress::LiveLine;
-use ceworld::{AnyWorld, Error, PolicyFile, StopReason};
+use ceworld::{Error, PolicyFile, StopReason};
 
-use crate::convert::{count, flag, optional_count, optional_real, real, seed};
-use crate::errors::OrRaise;
+use crate::convert::{count, flag, optional_count, optional_real, real, seed, text};
+use crate::errors::{OrRaise, detached};
+use crate::outside::WorldArg;
 use crate::policy::PyPolicy;
+use crate::results::PyEvaluation;
 use crate::signals::Signals;
-use crate::world::PyWorld;
 
 /// What `optimize_controller` returns (wrapped by `cehmm.ControllerResult`).
 #[pyclass(module = "cehmm._core", name = "ControllerOutcome", frozen)]
@@ -32,10 +34,22 @@ impl PyControllerOutcome {
         PyPolicy { file: self.file.clone() }
     }
 
-    /// Its exact value.
+    /// Its value: exact, or the mean of `evaluation`.
     #[getter]
     fn value(&self) -> f64 {
         self.outcome.value
+    }
+
+    /// `"exact"` or `"sampled"`.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.outcome.kind.as_str()
+    }
+
+    /// Sampled values: the controller on fresh episodes.
+    #[getter]
+    fn evaluation(&self) -> Option<PyEvaluation> {
+        self.outcome.evaluation.clone().map(PyEvaluation)
     }
 
     /// One numpy array per statistic, one entry per iteration (all runs, in order).
@@ -53,6 +67,7 @@ impl PyControllerOutcome {
         history.set_item("best", column(|r| r.best))?;
         history.set_item("concentration", column(|r| r.concentration))?;
         history.set_item("evaluated", index(|r| r.evaluated))?;
+        history.set_item("injected", PyArray1::from_iter(py, h.iter().map(|r| r.injected)))?;
         history.set_item("seconds", column(|r| r.seconds))?;
         Ok(history)
     }
@@ -94,17 +109,18 @@ impl PyControllerOutcome {
     }
 }
 
-/// Searches a deterministic controller of a tabular world (model §8); Ctrl-C stops it between
+/// Searches a deterministic controller of any world (model §8); Ctrl-C stops it between
 /// iterations and the result comes back marked interrupted.
 #[pyfunction]
 #[pyo3(signature = (
     world, *, nodes, samples, rho, smoothing, patience, max_iterations, time_limit, tolerance, seed, threads, restarts,
-    progress
+    progress, value=None, episodes=None, candidates=None, select_episodes=None, eval_episodes=None, injection=None,
+    injections=None, template=None, template_weight=None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn optimize_controller(
     py: Python<'_>,
-    world: &PyWorld,
+    world: &Bound<'_, PyAny>,
     nodes: &Bound<'_, PyAny>,
     samples: &Bound<'_, PyAny>,
     rho: &Bound<'_, PyAny>,
@@ -117,7 +133,17 @@ pub fn optimize_controller(
     threads: Option<&Bound<'_, PyAny>>,
     restarts: &Bound<'_, PyAny>,
     progress: &Bound<'_, PyAny>,
+    value: Option<&Bound<'_, PyAny>>,
+    episodes: Option<&Bound<'_, PyAny>>,
+    candidates: Option<&Bound<'_, PyAny>>,
+    select_episodes: Option<&Bound<'_, PyAny>>,
+    eval_episodes: Option<&Bound<'_, PyAny>>,
+    injection: Option<&Bound<'_, PyAny>>,
+    injections: Option<&Bound<'_, PyAny>>,
+    template: Option<&Bound<'_, PyAny>>,
+    template_weight: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyControllerOutcome> {
+    let d = ControllerConfig::default();
     let config = ControllerConfig {
         nodes: count("nodes", nodes)?,
         samples: count("samples", samples)?,
@@ -130,33 +156,61 @@ pub fn optimize_controller(
         seed: self::seed("seed", seed)?,
         threads: optional_count("threads", threads)?,
         restarts: count("restarts", restarts)?,
+        episodes: optional_count("episodes", episodes)?.unwrap_or(d.episodes),
+        candidates: optional_count("candidates", candidates)?.unwrap_or(d.candidates),
+        select_episodes: optional_count("select_episodes", select_episodes)?.unwrap_or(d.select_episodes),
+        eval_episodes: optional_count("eval_episodes", eval_episodes)?.unwrap_or(d.eval_episodes),
+        injection: optional_real("injection", injection)?.unwrap_or(d.injection),
+        injections: optional_count("injections", injections)?.unwrap_or(d.injections),
+        template: match template {
+            Some(t) => Template::parse(&text("template", t)?).or_raise()?,
+            None => d.template,
+        },
+        template_weight: optional_real("template_weight", template_weight)?.unwrap_or(d.template_weight),
     };
     let progress = flag("progress", progress)?;
-    let AnyWorld::Pomdp(world) = &world.world else {
-        return Err(Error::invalid("world", "not tabular (a controller search needs a cehmm.PomdpWorld)")).or_raise();
-    };
+    let kind = value.map(|v| text("value", v)).transpose()?.map(|v| ValueKind::parse(&v)).transpose().or_raise()?;
+    let world = WorldArg::of(world)?;
     let mut signals = Signals::default();
-    let outcome = py.detach(|| {
-        ceworld::catch_panics(|| {
-            let mut line = progress.then(LiveLine::stderr);
-            let outcome = search(world, &config, |r| {
-                if let Some(line) = &mut line {
-                    line.update(format!(
-                        "run {} iter {:>5}  mean {:>10.4}  elite>= {:>10.4}  best {:>10.4}  {:>6.1}s",
-                        r.restart, r.iteration, r.mean, r.elite_min, r.best, r.seconds
-                    ));
-                }
-                signals.flow()
-            });
-            if let Some(line) = line {
-                line.finish();
+    let outcome = match &world {
+        WorldArg::Engine(w) => {
+            let any = &w.world;
+            detached(py, || run(Valued::of(any, kind)?, &config, progress, &mut signals))
+        }
+        WorldArg::Outside(_) => {
+            if kind == Some(ValueKind::Exact) {
+                return Err(Error::invalid(
+                    "value",
+                    "\"exact\" for a world written in Python (exact values need a cehmm.PomdpWorld; use \"sampled\")",
+                ))
+                .or_raise();
             }
-            outcome.map(|outcome| PyControllerOutcome {
-                file: PolicyFile::from_controller(world, &outcome, &config),
-                outcome,
-            })
-        })
-    });
+            world.run(py, |w| run(Valued::Sampled(w), &config, progress, &mut signals))
+        }
+    };
     signals.finish(py)?;
-    outcome.or_raise()
+    outcome
+}
+
+/// The search with its progress line.
+fn run(
+    world: Valued<'_>,
+    config: &ControllerConfig,
+    progress: bool,
+    signals: &mut Signals,
+) -> ceworld::Result<PyControllerOutcome> {
+    let mut line = progress.then(LiveLine::stderr);
+    let outcome = search(world, config, |r| {
+        if let Some(line) = &mut line {
+            line.update(format!(
+                "run {} iter {:>5}  mean {:>10.4}  elite>= {:>10.4}  best {:>10.4}  {:>6.1}s",
+                r.restart, r.iteration, r.mean, r.elite_min, r.best, r.seconds
+            ));
+        }
+        signals.flow()
+    });
+    if let Some(line) = line {
+        line.finish();
+    }
+    outcome.map(|outcome| PyControllerOutcome { file: outcome.to_file(world.episodes(), config), outcome })
 }

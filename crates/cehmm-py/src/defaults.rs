@@ -39,6 +39,14 @@ pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     controller.set_item("tolerance", c.tolerance)?;
     controller.set_item("seed", c.seed)?;
     controller.set_item("restarts", c.restarts)?;
+    controller.set_item("episodes", c.episodes)?;
+    controller.set_item("candidates", c.candidates)?;
+    controller.set_item("select_episodes", c.select_episodes)?;
+    controller.set_item("eval_episodes", c.eval_episodes)?;
+    controller.set_item("injection", c.injection)?;
+    controller.set_item("injections", c.injections)?;
+    controller.set_item("template", c.template.as_str())?;
+    controller.set_item("template_weight", c.template_weight)?;
     m.add("CONTROLLER_DEFAULTS", controller)?;
     m.add("INIT_CHOICES", ceworld::Init::ALL.map(ceworld::Init::as_str).to_vec())?;
     m.add("MEMORY_UPDATES", ceworld::MemoryUpdate::ALL.map(ceworld::MemoryUpdate::as_str).to_vec())?;

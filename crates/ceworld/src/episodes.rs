@@ -8,6 +8,7 @@ use serde_json::Value;
 use crate::ce::episode::{run_recorded, run_with};
 use crate::error::Result;
 use crate::policy::Hhmm;
+use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream, stream_key};
 use crate::world::World;
 
@@ -65,6 +66,18 @@ pub trait Episodes: Sync {
     /// the policy's (and, for a world run by the engine, the world's) randomness from
     /// `streams.episode(k)`, on the current rayon pool.
     fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()>;
+    /// Runs episodes `0..episodes` of each of `controllers` (model §8), writing the value of
+    /// episode `k` of controller `c` at `values[c·episodes + k]`, on the current rayon pool.
+    /// Episode `k` of every controller draws the world's randomness from `streams.episode(k)`
+    /// (a controller draws none): common random numbers, so that two controllers are compared
+    /// on the same episodes as far as their decisions let the world's draws agree.
+    fn run_controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+    ) -> Result<()>;
 }
 
 impl<W: World> Episodes for W {
@@ -98,4 +111,35 @@ impl<W: World> Episodes for W {
         }
         Ok(())
     }
+
+    fn run_controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+    ) -> Result<()> {
+        values.par_iter_mut().with_min_len(8).enumerate().for_each(|(i, value)| {
+            *value = run_controller(self, &controllers[i / episodes], &mut streams.episode(i % episodes));
+        });
+        Ok(())
+    }
+}
+
+/// Runs one episode of `world` under the deterministic `controller` and returns `V`: the
+/// randomness of `rng` is the world's alone.
+#[inline]
+pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> f64 {
+    let n_obs = world.n_observations();
+    let mut state = world.reset(rng);
+    let mut node = 0u32;
+    for _ in 0..world.horizon() {
+        let y = world.observe(&state, rng);
+        node = controller.next_node(node, y, n_obs);
+        world.step(&mut state, controller.act[node as usize] as usize, rng);
+        if world.done(&state) {
+            break;
+        }
+    }
+    world.reward(&state)
 }

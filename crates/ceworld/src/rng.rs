@@ -32,6 +32,9 @@ pub enum Purpose {
     /// The seed a world outside the engine draws a batch of episodes from
     /// ([`crate::world::outside`]).
     Outside = 10,
+    /// The episodes of a controller search's sampled values, shared by every controller of an
+    /// iteration (common random numbers; [`crate::ce::controller`]).
+    Controllers = 11,
 }
 
 /// `SplitMix64`'s finaliser: a bijective 64-bit mixer with good avalanche.

@@ -59,7 +59,7 @@ fn optimize_then_evaluate() {
 }
 
 #[test]
-fn a_controller_search_saves_a_policy_whose_exact_value_it_reports() {
+fn a_controller_search_saves_a_policy_whose_value_it_reports() {
     let path = temp("controller.json");
     let p = path.to_str().unwrap();
     let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
@@ -79,9 +79,19 @@ fn a_controller_search_saves_a_policy_whose_exact_value_it_reports() {
     let exact: f64 = stdout.split("(discount 0.95): ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     // Both within their tolerance (1e-6) of the true value.
     assert!((exact - reported).abs() < 3e-6, "{reported} / {stdout}");
-    // Only tabular worlds.
-    fails_with(&["controller", "--case", "1"], &["--pomdp", "tabular"]);
+    // Exact values only on tabular worlds; sampled values on any.
+    fails_with(&["controller", "--case", "1", "--value", "exact"], &["value", "exact values need a tabular world"]);
+    fails_with(&["controller", "--case", "1", "--value", "near"], &["value", "\"near\"", "sampled"]);
     fails_with(&[&args[..], &["--rho", "2"]].concat(), &["rho", "2"]);
+    let sampled = ["controller", "--case", "1", "--nodes", "3", "--samples", "100", "--episodes", "1"];
+    let out = ceworld(&[&sampled[..], &["--max-iterations", "2", "--eval-episodes", "5", "--out", p, "-q"]].concat());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && stdout.contains("on 5 fresh episodes"), "{stdout}");
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(
+        (&doc["provenance"]["value"], &doc["world"]["name"]),
+        (&serde_json::json!("sampled"), &serde_json::json!("target-tracking"))
+    );
 }
 
 #[test]

@@ -2,7 +2,7 @@
 //! against a hand computation and against the exact evaluation of its HHMM, the search against
 //! brute force on a tiny problem, determinism, restarts, interruption and bad settings.
 
-use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, optimize_controller};
+use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, Valued, optimize_controller};
 use ceworld::exact::{finite_horizon, infinite_horizon};
 use ceworld::rng::{Purpose, stream};
 use ceworld::{Error, Flow, PomdpWorld, StopReason};
@@ -96,7 +96,7 @@ fn the_search_finds_the_brute_force_optimum_of_a_tiny_problem() {
     let optimum =
         all_controllers(3, 3, 2).map(|c| values.value(&c, &mut scratch.0, &mut scratch.1)).fold(f64::MIN, f64::max);
     let config = ControllerConfig { nodes: 2, samples: 200, patience: 10, threads: Some(2), ..Default::default() };
-    let found = optimize_controller(&w, &config, |_| Flow::Continue).unwrap();
+    let found = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
     assert!((found.value - optimum).abs() < 1e-9, "found {} optimum {optimum}", found.value);
     // The returned policy is the controller of that value.
     assert!((finite_horizon(&w, &found.policy, None).unwrap().value - optimum).abs() < 1e-9);
@@ -114,7 +114,7 @@ fn results_do_not_depend_on_the_thread_count() {
             threads: Some(threads),
             ..Default::default()
         };
-        optimize_controller(&w, &config, |_| Flow::Continue).unwrap()
+        optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap()
     };
     let (one, two) = (run(1), run(2));
     assert_eq!(one.policy, two.policy);
@@ -130,7 +130,7 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
     let w = world("cheese.95.POMDP", 10, None);
     let config =
         ControllerConfig { nodes: 2, samples: 100, max_iterations: Some(3), restarts: 3, ..Default::default() };
-    let out = optimize_controller(&w, &config, |_| Flow::Continue).unwrap();
+    let out = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
     assert_eq!(out.run_values.len(), 3);
     assert_eq!(out.history.len(), 9);
     let best = out.run_values.iter().copied().fold(f64::MIN, f64::max);
@@ -138,11 +138,12 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
     assert_eq!(out.run_values[out.restart], best);
     // The first run is the single run with the same seed.
     let single =
-        optimize_controller(&w, &ControllerConfig { restarts: 1, ..config.clone() }, |_| Flow::Continue).unwrap();
+        optimize_controller(Valued::Exact(&w), &ControllerConfig { restarts: 1, ..config.clone() }, |_| Flow::Continue)
+            .unwrap();
     assert_eq!(single.value, out.run_values[0]);
 
     let mut seen = 0;
-    let stopped = optimize_controller(&w, &config, |_| {
+    let stopped = optimize_controller(Valued::Exact(&w), &config, |_| {
         seen += 1;
         if seen == 2 { Flow::Stop } else { Flow::Continue }
     })
@@ -165,7 +166,7 @@ fn bad_settings_are_named() {
         ("time_limit", ControllerConfig { time_limit: Some(-1.0), ..Default::default() }),
     ];
     for (name, config) in cases {
-        match optimize_controller(&w, &config, |_| Flow::Continue) {
+        match optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue) {
             Err(Error::InvalidArgument { name: n, .. }) => assert_eq!(n, name),
             other => panic!("{name}: {other:?}"),
         }
@@ -177,10 +178,35 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     // Hallway: 2000 eight-node controllers take far longer than 10 ms to evaluate.
     let w = world("hallway.POMDP", 10, None);
     let config = ControllerConfig { time_limit: Some(0.01), threads: Some(2), ..Default::default() };
-    let out = optimize_controller(&w, &config, |_| Flow::Continue).unwrap();
+    let out = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
     assert_eq!(out.stop, StopReason::TimeLimit);
     assert_eq!(out.history.len(), 1);
     let first = &out.history[0];
     assert!(first.evaluated >= 1 && first.evaluated < 2000, "{}", first.evaluated);
     assert!(out.value.is_finite() && out.value == first.best);
+}
+
+#[test]
+fn sampled_values_agree_with_exact_values() {
+    use ceworld::Episodes;
+    use ceworld::episodes::Streams;
+    for (name, n) in [("tiger.95.POMDP", 3), ("4x3.95.POMDP", 4), ("cheese.95.POMDP", 5), ("shuttle.95.POMDP", 3)] {
+        // γ^400 leaves less than 1e-6 of the infinite-horizon value out.
+        let w = world(name, 400, None);
+        let controllers: Vec<Controller> = (0..4).map(|k| random_controller(&w, n, k)).collect();
+        let k = 20_000;
+        let mut values = vec![0.0; controllers.len() * k];
+        let streams = Streams { seed: 3, purpose: Purpose::Controllers, iteration: 0 };
+        w.run_controllers(&controllers, streams, k, &mut values).unwrap();
+        for (c, v) in controllers.iter().zip(values.chunks(k)) {
+            let mean = v.iter().sum::<f64>() / k as f64;
+            let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1) as f64).sqrt();
+            let exact = value(&w, c, 1e-9);
+            assert!(
+                (mean - exact).abs() < 4.0 * sd / (k as f64).sqrt() + 1e-3,
+                "{name}: {mean} ± {} vs {exact}",
+                sd / (k as f64).sqrt()
+            );
+        }
+    }
 }

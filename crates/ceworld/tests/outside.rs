@@ -318,3 +318,103 @@ fn horizons_and_batches_beyond_the_memory_are_refused_before_allocating() {
     let e = rewards(&world, &policy, 1_000_000, 0).unwrap_err();
     assert!(matches!(e, Error::Memory { .. }), "{e}");
 }
+
+/// A small sampled controller search's settings.
+fn search(threads: usize) -> ceworld::ControllerConfig {
+    ceworld::ControllerConfig {
+        nodes: 3,
+        samples: 60,
+        rho: 0.1,
+        max_iterations: Some(5),
+        episodes: 7,
+        candidates: 2,
+        select_episodes: 20,
+        eval_episodes: 50,
+        threads: Some(threads),
+        ..ceworld::ControllerConfig::default()
+    }
+}
+
+#[test]
+fn controllers_are_valued_and_searched_as_the_engine_would_whatever_the_batch_and_threads() {
+    use ceworld::ce::controller::{Controller, Valued, optimize_controller};
+    use ceworld::episodes::{Episodes, Streams};
+    let controllers: Vec<Controller> = (0..5u32)
+        .map(|k| Controller { act: vec![k % 2, (k / 2) % 2, 1], next: (0..9).map(|i| (i * 7 + k) % 3).collect() })
+        .collect();
+    let streams = Streams { seed: 4, purpose: Purpose::Controllers, iteration: 2 };
+    let mut engine = vec![0.0; 5 * 6];
+    RING.run_controllers(&controllers, streams, 6, &mut engine).unwrap();
+    // Each value is the controller's HHMM played in the ring (a deterministic world).
+    for (c, values) in controllers.iter().zip(engine.chunks(6)) {
+        let policy = c.to_hhmm(3, 2).unwrap();
+        let v = run_with(&RING, &policy, &mut stream(0, Purpose::Evaluate, 0, 0), |_, _, _, _, _| {});
+        assert!(values.iter().all(|&x| x == v), "{values:?} vs {v}");
+    }
+    let reference = optimize_controller(Valued::Sampled(&RING), &search(2), |_| Flow::Continue).unwrap();
+    for (batch, threads) in [(1, 1), (4, 2), (6, 1), (7, 2), (1000, 2)] {
+        let outside = Lockstep::new(RingBatch::new(batch)).unwrap();
+        let mut values = vec![0.0; 5 * 6];
+        outside.run_controllers(&controllers, streams, 6, &mut values).unwrap();
+        assert_eq!(values, engine, "batch {batch}");
+        let found = optimize_controller(Valued::Sampled(&outside), &search(threads), |_| Flow::Continue).unwrap();
+        assert_eq!(
+            (&found.policy, found.value, &found.history.iter().map(|r| r.best).collect::<Vec<_>>()),
+            (&reference.policy, reference.value, &reference.history.iter().map(|r| r.best).collect::<Vec<_>>()),
+            "batch {batch}, threads {threads}"
+        );
+    }
+}
+
+/// Records the seed of every reset, one entry per episode.
+struct Seeds {
+    batch: usize,
+    seeds: Vec<u64>,
+}
+
+impl BatchWorld for Seeds {
+    fn shape(&self) -> Shape {
+        Shape { observations: 1, decisions: 1, horizon: 2 }
+    }
+    fn description(&self) -> Value {
+        json!({"name": "outside", "class": "tests.Seeds"})
+    }
+    fn max_batch(&self) -> usize {
+        self.batch
+    }
+    fn reset(&mut self, seed: u64, observations: &mut [i64]) -> ceworld::Result<()> {
+        self.seeds.extend(std::iter::repeat_n(seed, observations.len()));
+        observations.fill(0);
+        Ok(())
+    }
+    fn step(&mut self, _: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
+        out.observations.fill(0);
+        out.rewards.fill(0.0);
+        Ok(())
+    }
+}
+
+#[test]
+fn every_controller_is_valued_on_the_same_world_seeds() {
+    use ceworld::ce::controller::Controller;
+    use ceworld::episodes::{Episodes, Streams};
+    let controllers = vec![Controller { act: vec![0], next: vec![0] }; 3];
+    let streams = Streams { seed: 1, purpose: Purpose::Controllers, iteration: 0 };
+    for (batch, episodes) in [(1, 4), (2, 3), (3, 3), (8, 3), (5, 2)] {
+        let world = Lockstep::new(Seeds { batch, seeds: Vec::new() }).unwrap();
+        world.run_controllers(&controllers, streams, episodes, &mut vec![0.0; 3 * episodes]).unwrap();
+        let seeds = world.into_inner().seeds;
+        assert_eq!(seeds.len(), 3 * episodes);
+        // Episode k of every controller was reset with the same seed.
+        for k in 0..episodes {
+            let first = seeds[k];
+            assert!((0..3).all(|c| seeds[c * episodes + k] == first), "batch {batch}: {seeds:?}");
+        }
+        // With one episode a batch, the episodes of one controller have seeds of their own.
+        if batch == 1 {
+            let mut own = seeds[..episodes].to_vec();
+            own.dedup();
+            assert_eq!(own.len(), episodes, "{seeds:?}");
+        }
+    }
+}

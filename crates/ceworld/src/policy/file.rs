@@ -281,31 +281,4 @@ impl PolicyFile {
         file.policy = result.last_policy.clone();
         file
     }
-
-    /// The file of a controller search's best controller (model §8), with its provenance.
-    pub fn from_controller(
-        world: &crate::PomdpWorld,
-        outcome: &crate::ce::controller::ControllerOutcome,
-        config: &crate::ce::controller::ControllerConfig,
-    ) -> PolicyFile {
-        let provenance = json!({
-                "method": "controller-ce",
-                "seed": config.seed,
-                "nodes": config.nodes,
-                "samples": config.samples,
-                "rho": config.rho,
-                "alpha": config.smoothing,
-                "patience": config.patience,
-                "restarts": config.restarts,
-                "restart": outcome.restart,
-                "run_values": outcome.run_values,
-                "iterations": outcome.history.len(),
-                "best_iteration": outcome.best_iteration,
-                "exact_value": outcome.value,
-                "stop": outcome.stop.as_str(),
-                "interrupted": outcome.stop == crate::StopReason::Interrupted,
-                "version": crate::VERSION,
-        });
-        PolicyFile { policy: outcome.policy.clone(), world: crate::World::to_json(world), provenance }
-    }
 }

@@ -14,6 +14,7 @@ use crate::rng::EngineRng;
 
 pub mod agent;
 pub(crate) mod alias;
+pub mod controller;
 pub mod file;
 pub mod graph;
 

@@ -17,6 +17,7 @@ use crate::episodes::{Batch, Episodes, Shape, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::{Rollout, check_fits};
 use crate::policy::Hhmm;
+use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream_key};
 
 /// The `"name"` of a world outside the engine in policy files and checkpoints: the engine
@@ -126,33 +127,30 @@ impl<B: BatchWorld> Lockstep<B> {
         self.world.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// Runs the episodes `first..first + values.len()`, all inside batch `chunk`.
-    #[allow(clippy::too_many_arguments)]
-    fn run_batch(
+    /// Runs the episodes `first..first + values.len()` of one batch, the world drawing from
+    /// `world_seed` and `deciders` choosing each episode's decisions.
+    fn run_batch<D: Deciders>(
         &self,
         world: &mut B,
-        policy: &Hhmm,
-        streams: Streams,
-        chunk: u64,
+        deciders: &D,
+        world_seed: u64,
         first: usize,
-        values: &mut [f64],
-        records: &mut [u16],
-        lengths: &mut [u32],
+        out: BatchOut<'_>,
     ) -> Result<()> {
+        let BatchOut { values, records, lengths } = out;
         let Shape { observations: n_obs, horizon, .. } = self.shape;
-        let width = policy.layout().record_width();
-        let depth = width - 2;
+        let width = deciders.width();
         let stride = horizon * width;
         let n = values.len();
         let place = |k: usize, t: usize| Place {
             world: label(&self.description),
-            streams,
+            streams: deciders.streams(),
             episodes: (first, first + n),
             episode: k,
+            per_controller: deciders.per_controller(),
             step: t,
         };
-        let mut rngs: Vec<EngineRng> = (0..n).map(|i| streams.episode(first + i)).collect();
-        let mut memory = vec![0u16; n * depth];
+        let mut slots: Vec<D::Slot> = (0..n).map(|i| deciders.slot(first + i)).collect();
         let mut observations = vec![0i64; n];
         let mut decisions = vec![0i64; n];
         let mut rewards = vec![0.0f64; n];
@@ -160,8 +158,6 @@ impl<B: BatchWorld> Lockstep<B> {
         let mut alive = vec![true; n];
         let mut step_rewards = vec![0.0f64; n * horizon];
         lengths.fill(0);
-        // The world's own seed for this batch, apart from every stream of the policy.
-        let world_seed = stream_key(streams.key(chunk), Purpose::Outside, 0, 0) >> 1;
         world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
         for t in 0..horizon {
             for (i, &y) in observations.iter().enumerate() {
@@ -171,23 +167,19 @@ impl<B: BatchWorld> Lockstep<B> {
             }
             records
                 .par_chunks_mut(stride)
-                .zip(memory.par_chunks_mut(depth))
-                .zip(rngs.par_iter_mut())
+                .zip(slots.par_iter_mut())
                 .zip(decisions.par_iter_mut())
                 .zip(observations.par_iter())
                 .zip(alive.par_iter())
                 .with_min_len(64)
-                .for_each(|(((((record, memory), rng), decision), &y), &alive)| {
+                .for_each(|((((record, slot), decision), &y), &alive)| {
                     if !alive {
                         *decision = 0;
                         return;
                     }
-                    let d = policy.step(y as usize, memory, t == 0, rng);
                     let row = &mut record[t * width..(t + 1) * width];
-                    row[0] = y as u16;
-                    row[1] = d as u16;
-                    row[2..].copy_from_slice(memory);
-                    *decision = d as i64;
+                    deciders.decide(slot, y as usize, t == 0, row);
+                    *decision = i64::from(row[1]);
                 });
             let out = StepOut { observations: &mut observations, rewards: &mut rewards, done: &mut done };
             world.step(&decisions, out).map_err(|e| place(first, t + 1).wrap(&e))?;
@@ -223,6 +215,116 @@ impl<B: BatchWorld> Lockstep<B> {
         }
         Ok(())
     }
+
+    /// The world's own seed for batch `chunk` of `streams`, apart from every stream of the policy.
+    fn world_seed(streams: Streams, chunk: u64) -> u64 {
+        stream_key(streams.key(chunk), Purpose::Outside, 0, 0) >> 1
+    }
+
+    /// Refuses a batch of `m` episodes whose own buffers (step rewards, and `scratch` bytes per
+    /// episode of records the caller does not keep) the memory cannot hold.
+    fn check_batch(&self, m: usize, scratch: u64) -> Result<()> {
+        let bytes = m as u64 * (8 * self.shape.horizon as u64 + scratch);
+        let what = format!("a batch of {m} episodes of {} steps", self.shape.horizon);
+        crate::memory::check_memory(&what, bytes, crate::memory::available_memory())
+    }
+
+    /// The world, locked for one run.
+    fn lock(&self) -> std::sync::MutexGuard<'_, B> {
+        self.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+/// Where a batch writes its episodes: values, records (`horizon · width` numbers each) and the
+/// steps each ran.
+struct BatchOut<'a> {
+    values: &'a mut [f64],
+    records: &'a mut [u16],
+    lengths: &'a mut [u32],
+}
+
+/// What chooses the decisions of each episode of a batch: a policy (its own random stream per
+/// episode) or controllers (none).
+trait Deciders: Sync {
+    /// The state of one episode's decider.
+    type Slot: Send;
+    /// Numbers per step of a record: `[y, d, ...]`.
+    fn width(&self) -> usize;
+    /// The streams the episodes belong to (for messages).
+    fn streams(&self) -> Streams;
+    /// Episodes per controller, where the episodes are those of controllers (for messages).
+    fn per_controller(&self) -> Option<usize> {
+        None
+    }
+    /// The decider of episode `k`, before its first step.
+    fn slot(&self, k: usize) -> Self::Slot;
+    /// Writes the step's row `[y, d, ...]` after observation `y`.
+    fn decide(&self, slot: &mut Self::Slot, y: usize, first: bool, row: &mut [u16]);
+}
+
+/// A policy's draws: episode `k`'s from `streams.episode(k)`; rows `[y, d, m_1, ..., m_Λ]`.
+struct PolicyDeciders<'a> {
+    policy: &'a Hhmm,
+    streams: Streams,
+}
+
+impl Deciders for PolicyDeciders<'_> {
+    type Slot = (EngineRng, Vec<u16>);
+
+    fn width(&self) -> usize {
+        self.policy.layout().record_width()
+    }
+
+    fn streams(&self) -> Streams {
+        self.streams
+    }
+
+    fn slot(&self, k: usize) -> Self::Slot {
+        (self.streams.episode(k), vec![0; self.policy.levels().len()])
+    }
+
+    fn decide(&self, (rng, memory): &mut Self::Slot, y: usize, first: bool, row: &mut [u16]) {
+        let d = self.policy.step(y, memory, first, rng);
+        row[0] = y as u16;
+        row[1] = d as u16;
+        row[2..].copy_from_slice(memory);
+    }
+}
+
+/// Controllers: episode `c·episodes + k` is episode `k` of controller `c`; rows `[y, d, node]`.
+struct ControllerDeciders<'a> {
+    controllers: &'a [Controller],
+    episodes: usize,
+    n_obs: usize,
+    streams: Streams,
+}
+
+impl Deciders for ControllerDeciders<'_> {
+    type Slot = (usize, u32);
+
+    fn width(&self) -> usize {
+        3
+    }
+
+    fn streams(&self) -> Streams {
+        self.streams
+    }
+
+    fn per_controller(&self) -> Option<usize> {
+        Some(self.episodes)
+    }
+
+    fn slot(&self, k: usize) -> Self::Slot {
+        (k / self.episodes, 0)
+    }
+
+    fn decide(&self, (c, node): &mut Self::Slot, y: usize, _first: bool, row: &mut [u16]) {
+        let controller = &self.controllers[*c];
+        *node = controller.next_node(*node, y, self.n_obs);
+        row[0] = y as u16;
+        row[1] = controller.act[*node as usize] as u16;
+        row[2] = *node as u16;
+    }
 }
 
 impl<B: BatchWorld> Episodes for Lockstep<B> {
@@ -235,16 +337,14 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
     }
 
     fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
-        let mut world = self.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        let stride = self.shape.horizon * policy.layout().record_width();
+        let mut world = self.lock();
+        let deciders = PolicyDeciders { policy, streams };
+        let stride = self.shape.horizon * deciders.width();
         let n = batch.values.len();
         // A batch's own buffers (step rewards, records when the caller keeps none), checked
         // before they are allocated.
         let m = n.min(self.batch);
-        let scratch = if batch.records.is_some() { 0 } else { 2 * stride as u64 };
-        let bytes = m as u64 * (8 * self.shape.horizon as u64 + scratch);
-        let what = format!("a batch of {m} episodes of {} steps", self.shape.horizon);
-        crate::memory::check_memory(&what, bytes, crate::memory::available_memory())?;
+        self.check_batch(m, if batch.records.is_some() { 0 } else { 2 * stride as u64 })?;
         // Without the caller's records, each batch reuses buffers of one batch.
         let (mut own_records, mut own_lengths);
         let (records, lengths, kept) = if let Some((records, lengths)) = batch.records {
@@ -258,14 +358,55 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
             let k = first + start;
             let chunk = k / self.batch;
             let end = n.min((chunk + 1) * self.batch - first);
-            let (r, l) = if kept {
+            let (records, lengths) = if kept {
                 (&mut records[start * stride..end * stride], &mut lengths[start..end])
             } else {
                 (&mut records[..(end - start) * stride], &mut lengths[..end - start])
             };
-            let values = &mut batch.values[start..end];
-            let world = &mut *world;
-            B::on_thread(|| self.run_batch(world, policy, streams, chunk as u64, k, values, r, l))?;
+            let out = BatchOut { values: &mut batch.values[start..end], records, lengths };
+            let (world, seed) = (&mut *world, Self::world_seed(streams, chunk as u64));
+            B::on_thread(|| self.run_batch(world, &deciders, seed, k, out))?;
+            start = end;
+        }
+        Ok(())
+    }
+
+    /// Batches hold whole controllers where `episodes` fits in one (as many as fit, every batch
+    /// reset with the same seed), else slices of `B` episodes of one controller (slice `j`
+    /// reset with seed `j`): episode `k` of every controller is then drawn from the same seed,
+    /// at the same place in its batch where the batch holds one controller. So a world of the
+    /// episode protocol (`B = 1`) gives every controller exactly the same episodes; a batched
+    /// world whose episodes depend on their place in the batch gives the same episodes to
+    /// the controllers at the same place of their batches.
+    fn run_controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+    ) -> Result<()> {
+        let mut world = self.lock();
+        let deciders = ControllerDeciders { controllers, episodes, n_obs: self.shape.observations, streams };
+        let stride = self.shape.horizon * deciders.width();
+        let per_batch = if episodes <= self.batch { episodes * (self.batch / episodes) } else { self.batch };
+        let m = per_batch.min(values.len());
+        self.check_batch(m, 2 * stride as u64 + 4)?;
+        let (mut records, mut lengths) = (vec![0u16; m * stride], vec![0u32; m]);
+        let mut start = 0;
+        while start < values.len() {
+            let (chunk, end) = if episodes <= self.batch {
+                (0, values.len().min(start + per_batch))
+            } else {
+                let (c, k) = (start / episodes, start % episodes);
+                ((k / self.batch) as u64, c * episodes + episodes.min(k + self.batch))
+            };
+            let out = BatchOut {
+                values: &mut values[start..end],
+                records: &mut records[..(end - start) * stride],
+                lengths: &mut lengths[..end - start],
+            };
+            let (world, seed) = (&mut *world, Self::world_seed(streams, chunk));
+            B::on_thread(|| self.run_batch(world, &deciders, seed, start, out))?;
             start = end;
         }
         Ok(())
@@ -278,14 +419,17 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
 /// state is the world's own business: `x` is empty.
 pub fn rollout<B: BatchWorld>(world: &Lockstep<B>, policy: &Hhmm, seed: u64, episode: u64) -> Result<Rollout> {
     check_fits(world, policy)?;
-    let mut guard = world.world.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let mut guard = world.lock();
     let width = policy.layout().record_width();
     let mut record = vec![0u16; world.shape.horizon * width];
     let (mut value, mut length) = ([0.0], [0u32]);
     let streams = Streams { seed, purpose: Purpose::Evaluate, iteration: 0 };
     let (k, chunk) = (episode as usize, episode / world.batch as u64);
     let guard = &mut *guard;
-    B::on_thread(|| world.run_batch(guard, policy, streams, chunk, k, &mut value, &mut record, &mut length))?;
+    let deciders = PolicyDeciders { policy, streams };
+    let out = BatchOut { values: &mut value, records: &mut record, lengths: &mut length };
+    let seed = Lockstep::<B>::world_seed(streams, chunk);
+    B::on_thread(|| world.run_batch(guard, &deciders, seed, k, out))?;
     record.truncate(length[0] as usize * width);
     let column = |c: usize| record.chunks_exact(width).map(|s| i64::from(s[c])).collect();
     Ok(Rollout {
@@ -312,23 +456,33 @@ struct Place {
     streams: Streams,
     episodes: (usize, usize),
     episode: usize,
+    /// Episodes per controller, where the episodes are those of controllers.
+    per_controller: Option<usize>,
     step: usize,
 }
 
 impl Place {
     fn stream(&self) -> String {
         match self.streams.purpose {
-            Purpose::Optimise => format!("iteration {}", self.streams.iteration),
+            Purpose::Optimise | Purpose::Controllers => format!("iteration {}", self.streams.iteration),
             other => format!("{other:?}").to_lowercase(),
+        }
+    }
+
+    /// Episode `k`, or episode `k mod K` of controller `k div K`.
+    fn episode(&self, k: usize) -> String {
+        match self.per_controller {
+            Some(per) => format!("controller {}, episode {}", k / per, k % per),
+            None => format!("episode {k}"),
         }
     }
 
     /// An error of one episode.
     fn error(&self, message: &str) -> Error {
         Error::World(format!(
-            "{}, episode {} ({}), step {}: {message}",
+            "{}, {} ({}), step {}: {message}",
             self.world,
-            self.episode,
+            self.episode(self.episode),
             self.stream(),
             self.step
         ))
@@ -337,7 +491,12 @@ impl Place {
     /// An error of a call for the whole batch.
     fn wrap(&self, error: &Error) -> Error {
         let (a, b) = self.episodes;
-        let episodes = if b == a + 1 { format!("episode {a}") } else { format!("episodes {a}..{b}") };
+        let episodes = match self.per_controller {
+            Some(_) if b == a + 1 => self.episode(a),
+            Some(_) => format!("{} to {}", self.episode(a), self.episode(b - 1)),
+            None if b == a + 1 => format!("episode {a}"),
+            None => format!("episodes {a}..{b}"),
+        };
         let call = if self.step == 0 { "reset".to_string() } else { format!("step {}", self.step) };
         Error::World(format!("{}, {episodes} ({}), {call}: {error}", self.world, self.stream()))
     }

@@ -1,11 +1,11 @@
-//! `ceworld controller`: the cross-entropy method over deterministic controllers of a tabular
-//! world (model §8).
+//! `ceworld controller`: the cross-entropy method over deterministic controllers of any world,
+//! on exact values (a tabular world) or sampled ones (model §8).
 
 use std::path::PathBuf;
 
-use ceworld::ce::controller::{ControllerConfig, optimize_controller};
+use ceworld::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller};
 use ceworld::progress::LiveLine;
-use ceworld::{AnyWorld, Error, Flow, PolicyFile, Result};
+use ceworld::{Flow, Result};
 
 use crate::{WorldArgs, stop, world_from};
 
@@ -49,6 +49,38 @@ pub(crate) struct ControllerArgs {
     /// others seeds derived from it; the values are exact, so choosing has no bias).
     #[arg(long, default_value_t = ControllerConfig::default().restarts)]
     restarts: usize,
+    /// How each controller is valued: "exact" (a tabular world, the default there) or "sampled"
+    /// (episodes on common random numbers: the default on every other world).
+    #[arg(long, value_parser = parse_value_kind, value_name = "exact|sampled")]
+    value: Option<ValueKind>,
+    /// Sampled values: episodes per controller and iteration (K), shared by every controller of
+    /// an iteration.
+    #[arg(long, default_value_t = ControllerConfig::default().episodes)]
+    episodes: usize,
+    /// Sampled values: the iteration's best controllers scored again on the selection episodes;
+    /// the best so far is the best there.
+    #[arg(long, default_value_t = ControllerConfig::default().candidates)]
+    candidates: usize,
+    /// Sampled values: the selection episodes (the same for every iteration and run).
+    #[arg(long, default_value_t = ControllerConfig::default().select_episodes)]
+    select_episodes: usize,
+    /// Sampled values: fresh episodes that value the controller returned.
+    #[arg(long, default_value_t = ControllerConfig::default().eval_episodes)]
+    eval_episodes: usize,
+    /// When patience runs out, mix this weight of the uniform law into every law and go on
+    /// (an escape from a converged run; see --injections).
+    #[arg(long, default_value_t = ControllerConfig::default().injection)]
+    injection: f64,
+    /// The most escapes of one run (0: a run stops when patience runs out).
+    #[arg(long, default_value_t = ControllerConfig::default().injections)]
+    injections: usize,
+    /// The memory the laws start from: uniform, hold (a latch: nodes stay), clock (node q moves
+    /// to q+1) or mixed (both).
+    #[arg(long, default_value = ControllerConfig::default().template.as_str(), value_parser = parse_template)]
+    template: Template,
+    /// The weight of the template in the first successor laws, in [0, 1).
+    #[arg(long, default_value_t = ControllerConfig::default().template_weight)]
+    template_weight: f64,
     /// Where to save the best controller (a policy file, model §6).
     #[arg(long, default_value = "policy.json", value_name = "FILE.json")]
     out: PathBuf,
@@ -58,12 +90,8 @@ pub(crate) struct ControllerArgs {
 }
 
 pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
-    let AnyWorld::Pomdp(world) = world_from(&args.world)? else {
-        return Err(Error::invalid(
-            "--pomdp",
-            "missing (a controller search needs a tabular world: give --pomdp FILE)",
-        ));
-    };
+    let world = world_from(&args.world)?;
+    let valued = Valued::of(&world, args.value)?;
     let config = ControllerConfig {
         nodes: args.nodes,
         samples: args.samples,
@@ -76,11 +104,19 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         seed: args.seed,
         threads: args.threads,
         restarts: args.restarts,
+        episodes: args.episodes,
+        candidates: args.candidates,
+        select_episodes: args.select_episodes,
+        eval_episodes: args.eval_episodes,
+        injection: args.injection,
+        injections: args.injections,
+        template: args.template,
+        template_weight: args.template_weight,
     };
     config.validate()?;
     stop::install();
     let mut line = (!args.quiet).then(LiveLine::stderr);
-    let outcome = optimize_controller(&world, &config, |r| {
+    let outcome = optimize_controller(valued, &config, |r| {
         if let Some(line) = &mut line {
             if r.iteration == 0 && r.restart > 0 {
                 line.note(&format!("restart {} of {}", r.restart + 1, config.restarts));
@@ -95,20 +131,39 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     if let Some(line) = line {
         line.finish();
     }
-    PolicyFile::from_controller(&world, &outcome, &config).save(&args.out)?;
-    let horizon = if world.tables().gamma < 1.0 { "infinite-horizon" } else { "at the horizon" };
+    outcome.to_file(valued.episodes(), &config).save(&args.out)?;
+    let what = match (&outcome.evaluation, &world) {
+        (Some(e), _) => format!("{:.4} ± {:.4} on {} fresh episodes", e.mean, e.std_error, e.episodes),
+        (None, ceworld::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {
+            format!("exact infinite-horizon value {:.6}", outcome.value)
+        }
+        (None, _) => format!("exact value at the horizon {:.6}", outcome.value),
+    };
     if config.restarts > 1 {
         let values: Vec<String> = outcome.run_values.iter().map(|v| format!("{v:.6}")).collect();
-        println!("best of {} runs: run {} (values {})", outcome.run_values.len(), outcome.restart, values.join(", "));
+        let on = if outcome.evaluation.is_some() { "on the selection episodes" } else { "exact" };
+        println!(
+            "best of {} runs: run {} (values {on}: {})",
+            outcome.run_values.len(),
+            outcome.restart,
+            values.join(", ")
+        );
     }
     println!(
-        "{}: {} iterations in {:.1}s, best controller from iteration {}: exact {horizon} value {:.6}; saved {}",
+        "{}: {} iterations in {:.1}s, best controller from iteration {}: {what}; saved {}",
         outcome.stop.as_str(),
         outcome.history.len(),
         outcome.seconds,
         outcome.best_iteration,
-        outcome.value,
         args.out.display()
     );
     Ok(())
+}
+
+fn parse_value_kind(text: &str) -> std::result::Result<ValueKind, String> {
+    ValueKind::parse(text).map_err(|e| e.to_string())
+}
+
+fn parse_template(text: &str) -> std::result::Result<Template, String> {
+    Template::parse(text).map_err(|e| e.to_string())
 }

@@ -1,0 +1,253 @@
+//! The settings of a controller search (model §8): how values are known, the memory the laws
+//! start from, and every number of the search.
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+
+/// Most controllers of one iteration.
+pub const MAX_SAMPLES: usize = 10_000_000;
+/// Most runs of one search.
+pub const MAX_RESTARTS: usize = 10_000;
+/// Most episodes of one iteration of a search on sampled values (`samples · episodes`).
+pub const MAX_ITERATION_EPISODES: usize = 100_000_000;
+
+/// How each controller's value is known.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ValueKind {
+    /// Computed exactly (a tabular world only).
+    Exact,
+    /// Estimated from sampled episodes, on common random numbers (any world).
+    Sampled,
+}
+
+impl ValueKind {
+    /// `"exact"` or `"sampled"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ValueKind::Exact => "exact",
+            ValueKind::Sampled => "sampled",
+        }
+    }
+
+    /// The kind named `name`, or an error listing both.
+    pub fn parse(name: &str) -> Result<ValueKind> {
+        match name {
+            "exact" => Ok(ValueKind::Exact),
+            "sampled" => Ok(ValueKind::Sampled),
+            other => Err(Error::invalid("value", format!("{other:?} (expected \"exact\" or \"sampled\")"))),
+        }
+    }
+}
+
+/// The memory a search starts from (its first laws): every successor law is the uniform law
+/// with `template_weight` of it moved onto the template's successor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Template {
+    /// No template: uniform laws.
+    Uniform,
+    /// A latch: every node but the start node stays where it is, whatever it observes, so
+    /// that what the first observations chose is held.
+    Hold,
+    /// A clock: node `q` moves on to `q + 1` (the last node stays), whatever it observes.
+    Clock,
+    /// The weight shared by `Hold` and `Clock` (the start node: all on `Clock`).
+    Mixed,
+}
+
+impl Template {
+    /// Every template, in the order of their names.
+    pub const ALL: [Template; 4] = [Template::Uniform, Template::Hold, Template::Clock, Template::Mixed];
+
+    /// `"uniform"`, `"hold"`, `"clock"` or `"mixed"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Template::Uniform => "uniform",
+            Template::Hold => "hold",
+            Template::Clock => "clock",
+            Template::Mixed => "mixed",
+        }
+    }
+
+    /// The template named `name`, or an error listing them.
+    pub fn parse(name: &str) -> Result<Template> {
+        Template::ALL.into_iter().find(|t| t.as_str() == name).ok_or_else(|| {
+            Error::invalid("template", format!("{name:?} (expected one of uniform, hold, clock, mixed)"))
+        })
+    }
+
+    /// The successors the template gives node `q` of `n` (whatever it observes).
+    pub(super) fn successors(self, q: usize, n: usize) -> Vec<usize> {
+        let hold = (q > 0).then_some(q);
+        let clock = Some((q + 1).min(n - 1));
+        match self {
+            Template::Uniform => Vec::new(),
+            Template::Hold => hold.into_iter().collect(),
+            Template::Clock => clock.into_iter().collect(),
+            Template::Mixed => hold.into_iter().chain(clock).collect(),
+        }
+    }
+}
+
+/// The settings of a controller search; `Default` gives settings that suit the small files of
+/// `data/pomdp/` (model §8).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ControllerConfig {
+    /// Nodes of the controller, `n`.
+    pub nodes: usize,
+    /// Controllers drawn per iteration, `N`.
+    pub samples: usize,
+    /// Selective rate ρ in (0, 1): the best `ceil(ρN)` controllers refit the laws.
+    pub rho: f64,
+    /// Smoothing α in (0, 1]: `p := α·elite frequency + (1 − α)·p`.
+    pub smoothing: f64,
+    /// Stop after this many iterations in a row without progress: neither a better controller
+    /// nor a higher elite threshold.
+    pub patience: usize,
+    /// Stop after this many iterations.
+    pub max_iterations: Option<usize>,
+    /// Stop after this many seconds (checked before each controller's evaluation on exact
+    /// values, before each iteration on sampled ones: an iteration cut by it does not refit the
+    /// laws).
+    pub time_limit: Option<f64>,
+    /// Absolute tolerance of each controller's infinite-horizon value (`γ < 1`), and the least
+    /// gain that counts as progress.
+    pub tolerance: f64,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Worker threads (`None`: one per core). Results do not depend on it.
+    pub threads: Option<usize>,
+    /// Independent runs (the first with `seed`, the others with seeds derived from it); the best
+    /// controller of all is returned. The time limit is shared by all the runs.
+    pub restarts: usize,
+    /// Sampled values: episodes per controller and iteration, `K`, the same `K` world streams for
+    /// every controller of an iteration (new ones each iteration).
+    pub episodes: usize,
+    /// Sampled values: the iteration's best `candidates` controllers (by their `K`-episode
+    /// value) are scored again on `select_episodes` fixed selection episodes, and the best so
+    /// far is the best on those (so that a lucky `K`-episode value cannot be kept).
+    pub candidates: usize,
+    /// Sampled values: the selection episodes (the same for every iteration and run).
+    pub select_episodes: usize,
+    /// Sampled values: fresh episodes that give the value reported for the controller returned
+    /// (episodes it was not chosen on).
+    pub eval_episodes: usize,
+    /// Escapes from a converged run: when patience runs out, mix this weight of the uniform law
+    /// into every law and go on, at most `injections` times (Omidshafiei et al. 2017).
+    pub injection: f64,
+    /// The most entropy injections of one run (0: a run stops when patience runs out).
+    pub injections: usize,
+    /// The memory the laws start from.
+    pub template: Template,
+    /// The weight of the template in the first successor laws, in [0, 1).
+    pub template_weight: f64,
+}
+
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        ControllerConfig {
+            nodes: 8,
+            samples: 2000,
+            rho: 0.02,
+            smoothing: 0.1,
+            patience: 50,
+            max_iterations: None,
+            time_limit: None,
+            tolerance: 1e-6,
+            seed: 0,
+            threads: None,
+            restarts: 1,
+            episodes: 100,
+            candidates: 4,
+            select_episodes: 2000,
+            eval_episodes: 10_000,
+            injection: 0.2,
+            injections: 0,
+            template: Template::Uniform,
+            template_weight: 0.5,
+        }
+    }
+}
+
+impl ControllerConfig {
+    /// Number of elite controllers, `ceil(ρN)`.
+    pub fn elite_count(&self) -> usize {
+        ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)
+    }
+
+    /// Refuses settings out of range, naming the value and what was expected.
+    pub fn validate(&self) -> Result<()> {
+        if self.nodes == 0 || self.nodes > crate::policy::MAX_LEVEL_SIZE {
+            return Err(Error::invalid(
+                "nodes",
+                format!("{} (expected 1..={})", self.nodes, crate::policy::MAX_LEVEL_SIZE),
+            ));
+        }
+        if self.samples == 0 || self.samples > MAX_SAMPLES {
+            return Err(Error::invalid("samples", format!("{} (expected 1..={MAX_SAMPLES})", self.samples)));
+        }
+        if !(self.rho > 0.0 && self.rho < 1.0) {
+            return Err(Error::invalid("rho", format!("{} (expected 0 < rho < 1)", self.rho)));
+        }
+        if !(self.smoothing > 0.0 && self.smoothing <= 1.0) {
+            return Err(Error::invalid("smoothing", format!("{} (expected 0 < smoothing <= 1)", self.smoothing)));
+        }
+        if self.patience == 0 {
+            return Err(Error::invalid("patience", "0 (expected at least 1)"));
+        }
+        if self.max_iterations == Some(0) {
+            return Err(Error::invalid("max_iterations", "0 (expected at least 1, or none)"));
+        }
+        if let Some(t) = self.time_limit
+            && !(t > 0.0 && t.is_finite())
+        {
+            return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
+        }
+        if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
+            return Err(Error::invalid("tolerance", format!("{} (expected a positive number)", self.tolerance)));
+        }
+        if let Some(n) = self.threads {
+            crate::control::check_threads(n)?;
+        }
+        if self.restarts == 0 || self.restarts > MAX_RESTARTS {
+            return Err(Error::invalid("restarts", format!("{} (expected 1..={MAX_RESTARTS})", self.restarts)));
+        }
+        let most = MAX_ITERATION_EPISODES / self.samples;
+        if self.episodes == 0 || self.episodes > most {
+            return Err(Error::invalid(
+                "episodes",
+                format!("{} (expected 1..={most}: samples × episodes at most {MAX_ITERATION_EPISODES})", self.episodes),
+            ));
+        }
+        if self.candidates == 0 || self.candidates > self.samples {
+            return Err(Error::invalid(
+                "candidates",
+                format!("{} (expected 1..={}, the samples)", self.candidates, self.samples),
+            ));
+        }
+        crate::evaluate::check_episodes(self.select_episodes).map_err(|_| {
+            Error::invalid(
+                "select_episodes",
+                format!("{} (expected 1..={})", self.select_episodes, crate::evaluate::MAX_EPISODES),
+            )
+        })?;
+        crate::evaluate::check_episodes(self.eval_episodes).map_err(|_| {
+            Error::invalid(
+                "eval_episodes",
+                format!("{} (expected 1..={})", self.eval_episodes, crate::evaluate::MAX_EPISODES),
+            )
+        })?;
+        if !(self.template_weight >= 0.0 && self.template_weight < 1.0) {
+            return Err(Error::invalid(
+                "template_weight",
+                format!("{} (expected 0 <= template_weight < 1)", self.template_weight),
+            ));
+        }
+        if !(self.injection > 0.0 && self.injection <= 1.0) {
+            return Err(Error::invalid("injection", format!("{} (expected 0 < injection <= 1)", self.injection)));
+        }
+        Ok(())
+    }
+}

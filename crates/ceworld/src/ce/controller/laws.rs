@@ -1,0 +1,148 @@
+//! The categorical laws controllers are drawn from (model §8): their start (uniform, or a
+//! memory template), draws, refits and escapes.
+
+use rand::RngExt;
+
+use crate::ce::controller::config::Template;
+use crate::policy::controller::Controller;
+
+/// The categorical laws the controllers are drawn from.
+pub(super) struct Laws {
+    n: usize,
+    n_actions: usize,
+    y1: usize,
+    /// `act[q·A + a]`.
+    act: Vec<f64>,
+    /// `next[(q·(|O|+1) + y)·n + q']`.
+    next: Vec<f64>,
+}
+
+impl Laws {
+    pub(super) fn uniform(n: usize, n_actions: usize, y1: usize) -> Laws {
+        Laws {
+            n,
+            n_actions,
+            y1,
+            act: vec![1.0 / n_actions as f64; n * n_actions],
+            next: vec![1.0 / n as f64; n * y1 * n],
+        }
+    }
+
+    /// The uniform laws with `weight` of each successor law moved onto `template`'s successors.
+    pub(super) fn start(n: usize, n_actions: usize, y1: usize, template: Template, weight: f64) -> Laws {
+        let mut laws = Laws::uniform(n, n_actions, y1);
+        for q in 0..n {
+            let targets = template.successors(q, n);
+            if targets.is_empty() {
+                continue;
+            }
+            for y in 0..y1 {
+                let row = &mut laws.next[(q * y1 + y) * n..(q * y1 + y + 1) * n];
+                for p in row.iter_mut() {
+                    *p *= 1.0 - weight;
+                }
+                for &to in &targets {
+                    row[to] += weight / targets.len() as f64;
+                }
+            }
+        }
+        laws
+    }
+
+    pub(super) fn draw(&self, rng: &mut crate::rng::EngineRng) -> Controller {
+        let act = self.act.chunks(self.n_actions).map(|row| pick(row, rng.random())).collect();
+        let next = self.next.chunks(self.n).map(|row| pick(row, rng.random())).collect();
+        Controller { act, next }
+    }
+
+    /// `p := α·frequency + (1 − α)·p` over the elite.
+    pub(super) fn refit(&mut self, elite: &[&Controller], alpha: f64) {
+        let weight = alpha / elite.len() as f64;
+        for p in self.act.iter_mut().chain(self.next.iter_mut()) {
+            *p *= 1.0 - alpha;
+        }
+        for c in elite {
+            for (q, &a) in c.act.iter().enumerate() {
+                self.act[q * self.n_actions + a as usize] += weight;
+            }
+            for (row, &q2) in c.next.iter().enumerate() {
+                self.next[row * self.n + q2 as usize] += weight;
+            }
+        }
+    }
+
+    /// Mean over rows of the largest probability.
+    pub(super) fn concentration(&self) -> f64 {
+        let rows = self.act.chunks(self.n_actions).chain(self.next.chunks(self.n));
+        let count = self.n + self.n * self.y1;
+        rows.map(|r| r.iter().copied().fold(0.0, f64::max)).sum::<f64>() / count as f64
+    }
+}
+
+/// The index drawn from `row` by the uniform number `u` (the last positive entry if rounding
+/// leaves `u` past the total).
+fn pick(row: &[f64], u: f64) -> u32 {
+    let mut acc = 0.0;
+    let mut last = 0;
+    for (i, &p) in row.iter().enumerate() {
+        if p > 0.0 {
+            acc += p;
+            last = i;
+            if u < acc {
+                return i as u32;
+            }
+        }
+    }
+    last as u32
+}
+
+impl Laws {
+    /// Mixes `weight` (`ε`) of the uniform law into every law: `p := (1 − ε)·p + ε/|row|`.
+    pub(super) fn inject(&mut self, weight: f64) {
+        let (a, n) = (1.0 / self.n_actions as f64, 1.0 / self.n as f64);
+        self.act.iter_mut().for_each(|p| *p = (1.0 - weight) * *p + weight * a);
+        self.next.iter_mut().for_each(|p| *p = (1.0 - weight) * *p + weight * n);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Purpose, stream};
+
+    #[test]
+    fn templates_move_their_weight_onto_their_successors() {
+        let (n, a, y) = (4, 2, 3);
+        let row = |laws: &Laws, q: usize, o: usize| laws.next[(q * y + o) * n..(q * y + o + 1) * n].to_vec();
+        let hold = Laws::start(n, a, y, Template::Hold, 0.6);
+        // The start node stays uniform; node 2 keeps 0.6 + 0.4/4 on itself.
+        assert_eq!(row(&hold, 0, 1), vec![0.25; 4]);
+        assert_eq!(row(&hold, 2, 1), vec![0.1, 0.1, 0.7, 0.1]);
+        let clock = Laws::start(n, a, y, Template::Clock, 0.6);
+        assert_eq!(row(&clock, 0, 2), vec![0.1, 0.7, 0.1, 0.1]);
+        assert_eq!(row(&clock, 3, 0), vec![0.1, 0.1, 0.1, 0.7]);
+        let mixed = Laws::start(n, a, y, Template::Mixed, 0.6);
+        assert_eq!(row(&mixed, 1, 0), vec![0.1, 0.4, 0.4, 0.1]);
+        assert_eq!(row(&mixed, 0, 0), vec![0.1, 0.7, 0.1, 0.1]);
+        assert_eq!(Laws::start(n, a, y, Template::Uniform, 0.6).next, Laws::uniform(n, a, y).next);
+        for laws in [&hold, &clock, &mixed] {
+            assert!(laws.next.chunks(n).all(|r| (r.iter().sum::<f64>() - 1.0).abs() < 1e-12));
+        }
+    }
+
+    #[test]
+    fn draws_follow_the_laws_and_an_injection_mixes_in_the_uniform_law() {
+        let mut laws = Laws::start(3, 2, 2, Template::Hold, 0.9);
+        // Frequencies of node 1's successor after observation 0: 0.9 + 0.1/3 on itself.
+        let draws = 20_000;
+        let held = (0..draws)
+            .filter(|&k| laws.draw(&mut stream(5, Purpose::Optimise, 0, k)).next[2] == 1)
+            .count() as f64
+            / draws as f64;
+        let p = 0.9 + 0.1 / 3.0;
+        assert!((held - p).abs() < 4.0 * (p * (1.0 - p) / draws as f64).sqrt(), "{held}");
+        laws.inject(0.5);
+        assert!((laws.next[2 * 3 + 1] - (0.5 * p + 0.5 / 3.0)).abs() < 1e-12);
+        assert!((laws.act[0] - 0.5).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,378 @@
+//! Cross-entropy over deterministic controllers (model §8).
+//!
+//! The paper's CE (model §3) samples *episodes* and counts the decisions and memory of the
+//! elite. The CE method can also run in the space of machines, as Rubinstein states it for
+//! combinatorial problems (and as DICE does for decentralised POMDPs: Oliehoek, Kooi & Vlassis,
+//! 2008): draw `N` deterministic `n`-node controllers ([`Controller`]) from independent
+//! categorical laws ([`laws`]: one per node for its decision, one per node and observation for
+//! its successor), value each ([`value`]: exactly on a tabular world, from `K` episodes on
+//! common random numbers on any world), keep the best `⌈ρN⌉`, refit the laws to the elite's
+//! frequencies (smoothed by α), repeat. On sampled values the best so far is chosen on fixed
+//! selection episodes and the controller returned is valued on fresh ones.
+
+pub mod config;
+mod laws;
+pub mod value;
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use serde_json::json;
+
+use crate::ce::optimize::StopReason;
+use crate::control::{Flow, thread_pool};
+use crate::episodes::{Episodes, Streams};
+use crate::error::Result;
+use crate::evaluate::{Evaluation, evaluate};
+pub use crate::policy::controller::Controller;
+use crate::policy::file::PolicyFile;
+use crate::policy::{Hhmm, Layout};
+use crate::rng::{Purpose, restart_seed, stream};
+
+pub use config::{ControllerConfig, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
+use laws::Laws;
+pub use value::{ControllerValue, Valued};
+
+/// One iteration of a controller search.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ControllerIteration {
+    /// The run (0-based; see `restarts`).
+    pub restart: usize,
+    /// 0-based, within the run.
+    pub iteration: usize,
+    /// Mean value of the iteration's controllers (exact, or over their `K` episodes).
+    pub mean: f64,
+    /// The worst value kept in the elite.
+    pub elite_min: f64,
+    /// The iteration's best value.
+    pub max: f64,
+    /// The best value so far: exact, or on the selection episodes.
+    pub best: f64,
+    /// Mean over the laws' rows of their largest probability (1: every draw is the same controller).
+    pub concentration: f64,
+    /// Controllers evaluated (fewer than `samples` when the time limit cut the iteration).
+    pub evaluated: usize,
+    /// Whether the laws were mixed with the uniform law after this iteration (an escape).
+    pub injected: bool,
+    /// Seconds since the start.
+    pub seconds: f64,
+}
+
+/// The outcome of a controller search.
+#[derive(Clone, Debug)]
+pub struct ControllerOutcome {
+    /// The best controller found, as a two-level one-hot HHMM.
+    pub policy: Hhmm,
+    /// Its value: exact (infinite-horizon for `γ < 1`, else at the world's horizon), or on
+    /// sampled values the mean of `evaluation`'s fresh episodes.
+    pub value: f64,
+    /// How the controllers were valued.
+    pub kind: ValueKind,
+    /// Sampled values: the returned controller on `eval_episodes` fresh episodes (streams
+    /// `(seed, Evaluate, 0, k)`, as `evaluate` gives for its policy).
+    pub evaluation: Option<Evaluation>,
+    /// The iteration that drew it, within its run.
+    pub best_iteration: usize,
+    /// The run that found it.
+    pub restart: usize,
+    /// The best value of each run, in order (exact, or on the selection episodes).
+    pub run_values: Vec<f64>,
+    /// One record per iteration, run after run.
+    pub history: Vec<ControllerIteration>,
+    /// Why the last run stopped.
+    pub stop: StopReason,
+    /// Seconds taken.
+    pub seconds: f64,
+}
+
+impl ControllerOutcome {
+    /// The policy file of the best controller (model §6), with its provenance.
+    pub fn to_file(&self, world: &dyn Episodes, config: &ControllerConfig) -> PolicyFile {
+        let mut provenance = json!({
+            "method": "controller-ce",
+            "value": self.kind.as_str(),
+            "seed": config.seed,
+            "nodes": config.nodes,
+            "samples": config.samples,
+            "rho": config.rho,
+            "alpha": config.smoothing,
+            "patience": config.patience,
+            "restarts": config.restarts,
+            "restart": self.restart,
+            "run_values": self.run_values,
+            "iterations": self.history.len(),
+            "best_iteration": self.best_iteration,
+            "stop": self.stop.as_str(),
+            "interrupted": self.stop == StopReason::Interrupted,
+            "version": crate::VERSION,
+        });
+        let map = provenance.as_object_mut().expect("an object");
+        match &self.evaluation {
+            None => {
+                map.insert("exact_value".into(), json!(self.value));
+            }
+            Some(e) => {
+                for (key, value) in [
+                    ("episodes", json!(config.episodes)),
+                    ("candidates", json!(config.candidates)),
+                    ("select_episodes", json!(config.select_episodes)),
+                    ("injections", json!(config.injections)),
+                    ("injection", json!(config.injection)),
+                    ("evaluation_mean", json!(e.mean)),
+                    ("evaluation_std_error", json!(e.std_error)),
+                    ("evaluation_episodes", json!(e.episodes)),
+                ] {
+                    map.insert(key.into(), value);
+                }
+            }
+        }
+        PolicyFile { policy: self.policy.clone(), world: world.description(), provenance }
+    }
+}
+
+/// Searches deterministic `config.nodes`-node controllers of `world` by the cross-entropy method
+/// (module docs), `config.restarts` times; `observe` sees every iteration of every run and may
+/// stop the search. On exact values the best controller of all the runs is returned (the choice
+/// has no selection bias); on sampled values the best on the selection episodes, valued on
+/// fresh ones.
+pub fn optimize_controller(
+    world: Valued<'_>,
+    config: &ControllerConfig,
+    mut observe: impl FnMut(&ControllerIteration) -> Flow,
+) -> Result<ControllerOutcome> {
+    config.validate()?;
+    let shape = world.episodes().shape();
+    let (n_actions, y1) = (shape.decisions, shape.observations);
+    // The policy must fit before any work.
+    Layout::new(y1, n_actions, &[config.nodes, config.nodes])?.fits_in_memory()?;
+    if let Valued::Sampled(_) = world {
+        let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
+        crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
+    }
+    let pool = thread_pool(config.threads)?;
+    let values = match world {
+        Valued::Exact(w) => Values::Exact(ControllerValue::new(w, config.tolerance)),
+        Valued::Sampled(w) => Values::Sampled(w),
+    };
+    let search = Search { config, values, y1, n_actions, pool };
+    let started = Instant::now();
+    let mut outcome: Option<ControllerOutcome> = None;
+    for restart in 0..config.restarts {
+        let run = search.run(restart_seed(config.seed, restart), restart, started, &mut observe)?;
+        let stop = run.stop;
+        outcome = Some(match outcome {
+            Some(mut kept) => {
+                kept.run_values.push(run.value);
+                if run.value > kept.value {
+                    kept.policy = run.policy;
+                    kept.value = run.value;
+                    kept.best_iteration = run.best_iteration;
+                    kept.restart = restart;
+                }
+                kept.history.extend(run.history);
+                kept.stop = stop;
+                kept
+            }
+            None => run,
+        });
+        if matches!(stop, StopReason::Interrupted | StopReason::TimeLimit) {
+            break;
+        }
+    }
+    let mut outcome = outcome.expect("at least one run");
+    if let Valued::Sampled(w) = world {
+        // The value reported comes from episodes the controller was not chosen on.
+        let evaluation = search.pool.install(|| evaluate(w, &outcome.policy, config.eval_episodes, config.seed))?;
+        outcome.value = evaluation.mean;
+        outcome.evaluation = Some(evaluation);
+    }
+    outcome.seconds = started.elapsed().as_secs_f64();
+    Ok(outcome)
+}
+
+/// How a search values its controllers.
+enum Values<'a> {
+    Exact(ControllerValue<'a>),
+    Sampled(&'a dyn Episodes),
+}
+
+/// What every run of a search shares.
+struct Search<'a> {
+    config: &'a ControllerConfig,
+    values: Values<'a>,
+    y1: usize,
+    n_actions: usize,
+    pool: rayon::ThreadPool,
+}
+
+impl Search<'_> {
+    /// The iteration's controllers, drawn from `laws`, with their values: exact (the controllers
+    /// not yet evaluated when the time limit passes are left out, the first always counts), or
+    /// the mean of `K` episodes on the iteration's common streams.
+    fn draw_and_value(
+        &self,
+        laws: &Laws,
+        seed: u64,
+        iteration: usize,
+        over_time: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Vec<Option<(f64, Controller)>>> {
+        let samples = self.config.samples;
+        let draw = |k: usize| laws.draw(&mut stream(seed, Purpose::Optimise, iteration as u64, k as u64));
+        self.pool.install(|| match &self.values {
+            Values::Exact(exact) => Ok((0..samples)
+                .into_par_iter()
+                .map_init(
+                    || (Vec::new(), Vec::new()),
+                    |(v, w), k| {
+                        if k > 0 && over_time() {
+                            return None;
+                        }
+                        let c = draw(k);
+                        Some((exact.value(&c, v, w), c))
+                    },
+                )
+                .collect()),
+            Values::Sampled(world) => {
+                let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
+                let k = self.config.episodes;
+                let mut values = vec![0.0; samples * k];
+                let streams = Streams { seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
+                world.run_controllers(&controllers, streams, k, &mut values)?;
+                let means = values.chunks(k).map(|v| v.iter().sum::<f64>() / k as f64);
+                Ok(means.zip(controllers).map(Some).collect())
+            }
+        })
+    }
+
+    /// The mean value of each of `controllers` on the selection episodes (shared by every
+    /// iteration and run: streams `(seed, Select, 0, k)`).
+    fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
+        let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
+        let m = self.config.select_episodes;
+        let mut values = vec![0.0; controllers.len() * m];
+        let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
+        self.pool.install(|| world.run_controllers(controllers, streams, m, &mut values))?;
+        Ok(values.chunks(m).map(|v| v.iter().sum::<f64>() / m as f64).collect())
+    }
+
+    /// One run from uniform laws with `seed`.
+    fn run(
+        &self,
+        seed: u64,
+        restart: usize,
+        started: Instant,
+        observe: &mut impl FnMut(&ControllerIteration) -> Flow,
+    ) -> Result<ControllerOutcome> {
+        let config = self.config;
+        let elite_size = config.elite_count();
+        let mut laws = Laws::start(config.nodes, self.n_actions, self.y1, config.template, config.template_weight);
+        let mut best: Option<(f64, Controller, usize)> = None;
+        let mut history = Vec::new();
+        let mut since_progress = 0;
+        let mut best_threshold = f64::NEG_INFINITY;
+        let mut injections = 0;
+        let over_time = || config.time_limit.is_some_and(|s| started.elapsed().as_secs_f64() >= s);
+        let stop = loop {
+            let iteration = history.len();
+            let drawn = self.draw_and_value(&laws, seed, iteration, &over_time)?;
+            let cut = drawn.iter().any(Option::is_none);
+            let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
+            let elite_size = elite_size.min(drawn.len());
+            let mut order: Vec<usize> = (0..drawn.len()).collect();
+            // Highest value first; equal values keep their draw order (deterministic).
+            order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
+            let top = order[0];
+            let threshold = drawn[order[elite_size - 1]].0;
+            // Progress is a better controller or a higher elite threshold (Rubinstein's γ_t): a
+            // lucky early draw must not stop a search whose laws are still climbing.
+            let mut progress = threshold > best_threshold + config.tolerance;
+            best_threshold = best_threshold.max(threshold);
+            // The iteration's candidate for the best so far: its best controller on exact
+            // values; on sampled ones the best on the selection episodes of its best few.
+            let candidate = match self.values {
+                Values::Exact(_) => (drawn[top].0, top),
+                Values::Sampled(_) => {
+                    let mut few: Vec<usize> = Vec::new();
+                    for &i in &order {
+                        if few.len() == config.candidates {
+                            break;
+                        }
+                        if few.iter().all(|&j| drawn[j].1 != drawn[i].1) {
+                            few.push(i);
+                        }
+                    }
+                    let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
+                    let scores = self.select_scores(&controllers)?;
+                    let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
+                    (scores[b], few[b])
+                }
+            };
+            if best.as_ref().is_none_or(|(b, _, _)| candidate.0 > *b + config.tolerance) {
+                best = Some((candidate.0, drawn[candidate.1].1.clone(), iteration));
+                progress = true;
+            }
+            since_progress = if progress { 0 } else { since_progress + 1 };
+            // Ties at the threshold are left out when some controllers beat it: a plateau of
+            // equal values (e.g. tiger's "always listen") would otherwise fill the elite and hold
+            // the laws there.
+            let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
+            let kept = if above > 0 { above } else { elite_size };
+            if !cut {
+                // A cut iteration's elite would favour whichever controllers came first.
+                let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
+                laws.refit(&elite, config.smoothing);
+            }
+            // Patience run out with injections left: mix in the uniform law and go on.
+            let injected = since_progress >= config.patience && injections < config.injections;
+            if injected {
+                laws.inject(config.injection);
+                injections += 1;
+                since_progress = 0;
+                best_threshold = f64::NEG_INFINITY;
+            }
+            let record = ControllerIteration {
+                restart,
+                iteration,
+                mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
+                elite_min: threshold,
+                max: drawn[top].0,
+                best: best.as_ref().map_or(f64::NAN, |b| b.0),
+                concentration: laws.concentration(),
+                evaluated: drawn.len(),
+                injected,
+                seconds: started.elapsed().as_secs_f64(),
+            };
+            let flow = observe(&record);
+            history.push(record);
+            if flow == Flow::Stop {
+                break StopReason::Interrupted;
+            }
+            if since_progress >= config.patience {
+                break StopReason::Patience;
+            }
+            if config.max_iterations.is_some_and(|m| history.len() >= m) {
+                break StopReason::MaxIterations;
+            }
+            if cut || over_time() {
+                break StopReason::TimeLimit;
+            }
+        };
+        let (value, controller, best_iteration) = best.expect("at least one iteration");
+        Ok(ControllerOutcome {
+            policy: controller.to_hhmm(self.y1, self.n_actions)?,
+            value,
+            kind: match self.values {
+                Values::Exact(_) => ValueKind::Exact,
+                Values::Sampled(_) => ValueKind::Sampled,
+            },
+            evaluation: None,
+            best_iteration,
+            restart,
+            run_values: vec![value],
+            history,
+            stop,
+            seconds: started.elapsed().as_secs_f64(),
+        })
+    }
+}

@@ -1,0 +1,56 @@
+//! A deterministic finite-state controller (model §8): the policies the controller search draws.
+//!
+//! A controller is a Moore machine over a world's observations: node `q` takes decision
+//! `act[q]`; on observation `y` it moves to `next[q·Y + y]` (`Y` the world's observation count).
+//! It starts in node 0, before the first observation, so that its first node is `next[y_1]`
+//! and its first decision `act[next[y_1]]`. (A tabular world's first observation is its start
+//! symbol, model §7, so there the first node is `next[|O|]`.) As an HHMM (model §2) it is the
+//! two-level policy `[n, n]` with one-hot tables `h0[q] = act[q]`, `h1[y][u] = next[u·Y + y]`,
+//! `start = 0`, `step[p] = p`, so that evaluation, exact values, graphs and policy files take it
+//! as it is; a controller draws no randomness of its own.
+
+use crate::error::Result;
+use crate::policy::{Hhmm, Layout};
+
+/// A deterministic controller: `act[q]` and `next[q·Y + y]`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Controller {
+    /// The decision of each node.
+    pub act: Vec<u32>,
+    /// The successor of node `q` after observation `y`, at `q·Y + y`.
+    pub next: Vec<u32>,
+}
+
+impl Controller {
+    /// Number of nodes.
+    pub fn nodes(&self) -> usize {
+        self.act.len()
+    }
+
+    /// The node after observation `y` in node `q`, for a world of `n_obs` observations.
+    #[inline]
+    pub fn next_node(&self, q: u32, y: usize, n_obs: usize) -> u32 {
+        self.next[q as usize * n_obs + y]
+    }
+
+    /// The two-level one-hot HHMM of this controller (module docs).
+    pub fn to_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
+        let n = self.act.len();
+        let layout = Layout::new(n_obs, n_actions, &[n, n])?.fits_in_memory()?;
+        let mut probs = vec![0.0; layout.len];
+        let t = &layout.tables;
+        for (q, &a) in self.act.iter().enumerate() {
+            probs[t[0].offset + q * n_actions + a as usize] = 1.0;
+        }
+        for y in 0..n_obs {
+            for u in 0..n {
+                probs[t[1].offset + (y * n + u) * n + self.next[u * n_obs + y] as usize] = 1.0;
+            }
+        }
+        probs[t[2].offset] = 1.0;
+        for p in 0..n {
+            probs[t[3].offset + p * n + p] = 1.0;
+        }
+        Hhmm::from_flat(layout, probs)
+    }
+}
