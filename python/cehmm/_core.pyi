@@ -136,7 +136,7 @@ class World:
 
 @final
 class OutsideWorld:
-    """A world written in Python (``ceworld::world::outside::BatchWorld``), made by ``cehmm.PythonWorld``."""
+    """A world written in Python (``ceworld::episodes::outside::BatchWorld``), made by ``cehmm.PythonWorld``."""
 
     def __new__(
         cls,

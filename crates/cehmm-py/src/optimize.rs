@@ -159,8 +159,8 @@ pub fn optimize(
             line.finish();
         }
         result.map(|result| PyOptimizeOutcome {
-            best: PolicyFile::from_result(w, &result, &config),
-            last: PolicyFile::from_last(w, &result, &config),
+            best: result.to_file(w, &config),
+            last: result.last_to_file(w, &config),
             result,
         })
     });

@@ -1,6 +1,6 @@
 //! `cehmm._core.OutsideWorld`: a world written in Python (the episode or the batched protocol,
 //! `cehmm.outside` puts every other form into one of them), translated into
-//! `ceworld::world::outside::BatchWorld`; and `WorldArg`, the one place that runs engine code on
+//! `ceworld::episodes::outside::BatchWorld`; and `WorldArg`, the one place that runs engine code on
 //! either kind of world.
 
 use numpy::{PyArray1, PyArrayMethods};
@@ -9,7 +9,7 @@ use pyo3::types::{PyDict, PyTuple};
 use serde_json::Value;
 
 use ceworld::episodes::Shape;
-use ceworld::world::outside::{BatchWorld, Lockstep, Recorded, StepOut};
+use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
 use ceworld::{Episodes, Error, with_world};
 
 use crate::convert::{count, object, real};
@@ -61,7 +61,7 @@ impl PyOutsideWorld {
             return Err(raise(Error::invalid("discount", format!("{discount} (expected 0 < discount <= 1)"))));
         }
         let mut description = object("description", Some(description))?;
-        description["name"] = Value::from(ceworld::world::outside::NAME);
+        description["name"] = Value::from(ceworld::episodes::outside::NAME);
         for (key, value) in
             [("observations", shape.observations), ("decisions", shape.decisions), ("horizon", shape.horizon)]
         {

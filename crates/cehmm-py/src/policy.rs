@@ -239,7 +239,7 @@ impl PyPolicy {
                 detached(py, || with_world!(world, w => rollout(w, policy, seed, episode)))?
             }
             WorldArg::Outside(w) => {
-                run_outside(py, &w, |w| ceworld::world::outside::rollout(w, policy, seed, episode))?
+                run_outside(py, &w, |w| ceworld::episodes::outside::rollout(w, policy, seed, episode))?
             }
         };
         Ok(PyRollout(recorded))

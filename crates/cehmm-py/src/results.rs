@@ -6,7 +6,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ceworld::evaluate::Rollout;
+use ceworld::episodes::run::Rollout;
 use ceworld::exact::ExactValue;
 use ceworld::qlearn::{WindowReport, percent};
 use ceworld::{Error, Evaluation};

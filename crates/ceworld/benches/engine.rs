@@ -6,7 +6,7 @@ use std::hint::black_box;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 use ceworld::ce::counting::count_episode;
-use ceworld::ce::episode::run_recorded;
+use ceworld::episodes::run::run_recorded;
 use ceworld::rng::{Purpose, stream};
 use ceworld::{CeConfig, Flow, PomdpWorld, TargetTracking, World, optimize, random_policy};
 

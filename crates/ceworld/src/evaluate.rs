@@ -2,7 +2,8 @@
 
 use serde::Serialize;
 
-use crate::ce::episode::run_with;
+pub use crate::episodes::check_fits;
+use crate::episodes::run::{Rollout, run_with};
 use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
@@ -109,37 +110,6 @@ pub fn evaluate<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize,
     Ok(Evaluation::from_rewards(&rewards(world, policy, episodes, seed)?))
 }
 
-/// One recorded episode: step `t` is row `t` of every table.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Rollout {
-    /// Names of the numbers of one hidden state ([`World::state_labels`]).
-    pub x_labels: Vec<&'static str>,
-    /// The hidden state `x_t` as [`World::describe`] writes it, `T × x_labels.len()`, row-major.
-    pub x: Vec<i64>,
-    /// Observations `y_t`.
-    pub y: Vec<i64>,
-    /// Decisions `d_t`.
-    pub d: Vec<i64>,
-    /// Memory states `m_1[t] .. m_Λ[t]`, `T × Λ`, row-major.
-    pub memory: Vec<i64>,
-    /// Number of levels `Λ` (columns of `memory`).
-    pub levels: usize,
-    /// The episode's reward `V`.
-    pub reward: f64,
-}
-
-impl Rollout {
-    /// Number of steps recorded.
-    pub fn len(&self) -> usize {
-        self.y.len()
-    }
-
-    /// Whether no step was recorded.
-    pub fn is_empty(&self) -> bool {
-        self.y.is_empty()
-    }
-}
-
 /// Episode `episode` of [`evaluate`] with the same `seed` (stream `(seed, Evaluate, 0, episode)`),
 /// recorded step by step.
 pub fn rollout<W: World>(world: &W, policy: &Hhmm, seed: u64, episode: u64) -> Result<Rollout> {
@@ -153,19 +123,6 @@ pub fn rollout<W: World>(world: &W, policy: &Hhmm, seed: u64, episode: u64) -> R
         memory.extend(m.iter().map(|&v| i64::from(v)));
     });
     Ok(Rollout { x_labels: world.state_labels(), x, y, d, memory, levels: policy.levels().len(), reward })
-}
-
-/// Checks that the policy's observation and decision counts are the world's.
-pub fn check_fits<E: Episodes + ?Sized>(world: &E, policy: &Hhmm) -> Result<()> {
-    let l = policy.layout();
-    let shape = world.shape();
-    if l.n_obs != shape.observations || l.n_actions != shape.decisions {
-        return Err(Error::Mismatch(format!(
-            "the policy has {} observations and {} decisions, the world {} and {}",
-            l.n_obs, l.n_actions, shape.observations, shape.decisions
-        )));
-    }
-    Ok(())
 }
 
 #[cfg(test)]

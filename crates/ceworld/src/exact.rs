@@ -11,8 +11,8 @@
 
 use serde::Serialize;
 
+use crate::episodes::check_fits;
 use crate::error::{Error, Result};
-use crate::evaluate::check_fits;
 use crate::policy::Hhmm;
 use crate::world::pomdp::PomdpWorld;
 

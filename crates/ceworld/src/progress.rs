@@ -6,7 +6,7 @@
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
-use crate::ce::optimize::IterationRecord;
+use crate::ce::record::IterationRecord;
 
 /// Seconds between two plain lines when stderr is not a terminal.
 pub const PLAIN_EVERY: Duration = Duration::from_secs(5);

@@ -30,7 +30,7 @@ pub enum Purpose {
     /// Episodes of a world stepped from outside ([`crate::world::session::Session`]).
     Session = 9,
     /// The seed a world outside the engine draws a batch of episodes from
-    /// ([`crate::world::outside`]).
+    /// ([`crate::episodes::outside`]).
     Outside = 10,
     /// The episodes of a controller search's sampled values, shared by every controller of an
     /// iteration (common random numbers; [`crate::ce::controller`]).

@@ -2,7 +2,7 @@
 //! determinism across thread counts, and policy files.
 
 use ceworld::ce::counting::count_episode;
-use ceworld::ce::episode::{run_recorded, run_with};
+use ceworld::episodes::run::{run_recorded, run_with};
 use ceworld::rng::{EngineRng, Purpose, stream, stream_key};
 use ceworld::{
     CeConfig, Error, Flow, Hhmm, Layout, PolicyFile, StopReason, TargetTracking, World, optimize, random_policy,
@@ -214,7 +214,7 @@ fn tracking_run(threads: usize) -> (PolicyFile, Vec<(f64, f64, f64, f64)>) {
     let config = CeConfig { threads: Some(threads), seed: 5, ..small(300, 4) };
     let r = optimize(&world, uniform_policy(&world, &[4, 3]).unwrap(), &config, |_| Flow::Continue).unwrap();
     let history = r.history.iter().map(|h| (h.mean, h.best, h.elite_threshold, h.elite_mean)).collect();
-    (PolicyFile::from_result(&world, &r, &config), history)
+    (r.to_file(&world, &config), history)
 }
 
 #[test]
@@ -227,7 +227,7 @@ fn same_seed_gives_identical_files_with_1_and_2_threads() {
         let world = TargetTracking::new(3).unwrap();
         let config = CeConfig { threads: Some(2), seed: 6, ..small(300, 4) };
         let r = optimize(&world, uniform_policy(&world, &[4, 3]).unwrap(), &config, |_| Flow::Continue).unwrap();
-        (PolicyFile::from_result(&world, &r, &config), ())
+        (r.to_file(&world, &config), ())
     };
     assert_ne!(one.policy, other_seed.policy);
 }

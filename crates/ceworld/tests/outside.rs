@@ -1,14 +1,14 @@
 //! Episodes that end before the horizon (`World::done`), and worlds that run outside the engine
-//! in lockstep batches (`world::outside`): one deterministic world written both ways gives the
+//! in lockstep batches (`episodes::outside`): one deterministic world written both ways gives the
 //! same episodes, the same evaluation and the same optimisation, bit for bit, whatever the batch
 //! size and the thread count; counting stops where an episode stopped; bad values from an
 //! outside world are named by episode and step.
 
-use ceworld::ce::episode::{run_recorded, run_with};
 use ceworld::episodes::Shape;
+use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut, rollout};
+use ceworld::episodes::run::{run_recorded, run_with};
 use ceworld::evaluate::{rewards, rewards_of};
 use ceworld::rng::{EngineRng, Purpose, stream};
-use ceworld::world::outside::{BatchWorld, Lockstep, Recorded, StepOut, rollout};
 use ceworld::{CeConfig, Error, Flow, World, optimize, random_policy};
 use serde_json::{Value, json};
 

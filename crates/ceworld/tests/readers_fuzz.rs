@@ -124,7 +124,7 @@ fn damaged_policy_files() {
     let config = CeConfig { samples: 100, max_iterations: Some(2), eval_episodes: 50, ..CeConfig::default() };
     let result = optimize(&w, random_policy(&w, &[3, 2, 2], 1).unwrap(), &config, |_| Flow::Continue).unwrap();
     let path = temp("good.json");
-    PolicyFile::from_result(&w, &result, &config).save(&path).unwrap();
+    result.to_file(&w, &config).save(&path).unwrap();
     let good = std::fs::read(&path).unwrap();
     let (refused, _) = fuzz("policy", &good, good.len(), |p| PolicyFile::load(p).map(|_| ()));
     assert!(refused > iterations() / 2);

@@ -1,5 +1,5 @@
 //! Checkpoints of the cross-entropy method (model §3): the whole state of an optimisation between
-//! two iterations, saved atomically, from which [`crate::ce::optimize::optimize_with`] continues
+//! two iterations, saved atomically, from which `crate::ce::optimize::optimize_with` continues
 //! exactly as if it had never stopped.
 //!
 //! The episodes of iteration `i` are drawn from streams keyed by `(seed, i, k)` (model §3,
@@ -17,10 +17,10 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::Value;
 
 use crate::ce::config::CeConfig;
-use crate::ce::optimize::{CeResult, IterationRecord};
+use crate::ce::record::{CeResult, IterationRecord};
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
-use crate::policy::{Hhmm, Layout};
+use crate::policy::Hhmm;
 
 /// The `"format"` of a checkpoint file.
 pub const FORMAT: &str = "cehmm-ce-checkpoint";
@@ -59,7 +59,7 @@ impl Checkpointing {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RunState {
     /// The tables the next iteration samples from.
-    #[serde(with = "policy_serde")]
+    #[serde(with = "crate::policy::flat::policy_serde")]
     pub policy: Hhmm,
     /// Every iteration so far.
     pub history: Vec<IterationRecord>,
@@ -265,46 +265,9 @@ impl<'a> Saver<'a> {
     }
 }
 
-/// An HHMM as its sizes and flat table entries; read back through [`Hhmm::from_flat`].
-#[derive(Serialize, Deserialize)]
-struct PolicyTables {
-    n_obs: usize,
-    n_actions: usize,
-    levels: Vec<usize>,
-    probs: Vec<f64>,
-}
-
-impl PolicyTables {
-    fn of(policy: &Hhmm) -> PolicyTables {
-        let layout = policy.layout();
-        PolicyTables {
-            n_obs: layout.n_obs,
-            n_actions: layout.n_actions,
-            levels: layout.levels.clone(),
-            probs: policy.probs().to_vec(),
-        }
-    }
-
-    fn into_policy<E: serde::de::Error>(self) -> std::result::Result<Hhmm, E> {
-        let layout = Layout::new(self.n_obs, self.n_actions, &self.levels).map_err(E::custom)?;
-        Hhmm::from_flat(layout, self.probs).map_err(E::custom)
-    }
-}
-
-pub(crate) mod policy_serde {
-    use super::{Deserialize, Deserializer, Hhmm, PolicyTables, Serialize, Serializer};
-
-    pub fn serialize<S: Serializer>(policy: &Hhmm, s: S) -> Result<S::Ok, S::Error> {
-        PolicyTables::of(policy).serialize(s)
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Hhmm, D::Error> {
-        PolicyTables::deserialize(d)?.into_policy()
-    }
-}
-
 mod best_serde {
-    use super::{Deserialize, Deserializer, Hhmm, PolicyTables, Serialize, Serializer};
+    use super::{Deserialize, Deserializer, Hhmm, Serialize, Serializer};
+    use crate::policy::flat::PolicyTables;
 
     #[derive(Serialize, Deserialize)]
     struct Best {

@@ -3,17 +3,17 @@
 use std::time::Instant;
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use crate::ce::checkpoint::{Checkpointing, FinishedRun, RunState, Saver};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
 pub use crate::ce::limits::MAX_RECORD_BYTES;
 use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
+use crate::ce::record::{CeResult, IterationRecord, StopReason};
 use crate::control::{Flow, thread_pool};
 use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, check_fits, evaluate, selection_mean};
+use crate::evaluate::{check_fits, evaluate, selection_mean};
 use crate::policy::Hhmm;
 use crate::rng::{Purpose, restart_seed, stream_key};
 
@@ -21,87 +21,6 @@ use crate::rng::{Purpose, restart_seed, stream_key};
 enum Counts {
     Integer(Vec<u32>),
     Real(Vec<f64>),
-}
-
-/// One iteration's statistics.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct IterationRecord {
-    /// Iteration number, from 0.
-    pub iteration: usize,
-    /// Mean reward of the N episodes.
-    pub mean: f64,
-    /// Best reward of the N episodes.
-    pub best: f64,
-    /// Smallest reward kept in the elite.
-    pub elite_threshold: f64,
-    /// Mean reward of the elite.
-    pub elite_mean: f64,
-    /// Seconds since the optimisation started, at the end of the iteration.
-    pub seconds: f64,
-    /// Whether the mean beat every earlier iteration's.
-    pub successful: bool,
-}
-
-/// Why an optimisation stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// `patience` unsuccessful iterations in a row (converged).
-    Patience,
-    /// `max_iterations` reached.
-    MaxIterations,
-    /// `time_limit` reached.
-    TimeLimit,
-    /// An iteration's mean reached `target`.
-    Target,
-    /// The caller asked to stop (Ctrl-C).
-    Interrupted,
-}
-
-impl StopReason {
-    /// The snake-case name (`"patience"`, `"interrupted"`, ...).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            StopReason::Patience => "patience",
-            StopReason::MaxIterations => "max_iterations",
-            StopReason::TimeLimit => "time_limit",
-            StopReason::Target => "target",
-            StopReason::Interrupted => "interrupted",
-        }
-    }
-}
-
-/// The outcome of an optimisation.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct CeResult {
-    /// The policy that drew the best iteration (highest mean reward).
-    #[serde(with = "crate::ce::checkpoint::policy_serde")]
-    pub policy: Hhmm,
-    /// The policy after the last update.
-    #[serde(with = "crate::ce::checkpoint::policy_serde")]
-    pub last_policy: Hhmm,
-    /// Index of the best iteration.
-    pub best_iteration: usize,
-    /// Per-iteration statistics.
-    pub history: Vec<IterationRecord>,
-    /// Why it stopped.
-    pub stop: StopReason,
-    /// `policy` evaluated on fresh episodes (an unbiased estimate, unlike the best mean).
-    pub evaluation: Evaluation,
-    /// Wall seconds, evaluation included (of every restart).
-    pub seconds: f64,
-    /// Which restart this is (0 for the run with the given seed).
-    pub restart: usize,
-    /// With `restarts > 1`: every run's score on the selection episodes, in run order (the
-    /// returned run is the first with the highest); empty for a single run.
-    pub restart_scores: Vec<f64>,
-}
-
-impl CeResult {
-    /// Whether the caller stopped it early.
-    pub fn interrupted(&self) -> bool {
-        self.stop == StopReason::Interrupted
-    }
 }
 
 /// Runs the cross-entropy method from `initial` until a stopping rule holds, calling
@@ -384,20 +303,5 @@ mod tests {
         assert!(check_iteration_size((1 << 22) + 1, 1, 1, 1 << 10).is_err());
         let e = check_iteration_size(1 << 24, 1, 1, 1 << 10).unwrap_err().to_string();
         assert!(e.contains("32768 MiB (at most 8192 MiB)"), "{e}");
-    }
-
-    #[test]
-    fn stop_reasons_have_snake_case_names() {
-        let names: Vec<_> = [
-            StopReason::Patience,
-            StopReason::MaxIterations,
-            StopReason::TimeLimit,
-            StopReason::Target,
-            StopReason::Interrupted,
-        ]
-        .iter()
-        .map(|s| s.as_str())
-        .collect();
-        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted"]);
     }
 }

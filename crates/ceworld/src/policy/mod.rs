@@ -16,6 +16,7 @@ pub mod agent;
 pub(crate) mod alias;
 pub mod controller;
 pub mod file;
+pub(crate) mod flat;
 pub mod graph;
 
 use alias::{AliasEntry, AliasScratch, build_alias, pick};
@@ -320,6 +321,19 @@ impl Hhmm {
     fn draw(&self, table: usize, row: usize, rng: &mut EngineRng) -> usize {
         let (offset, cols) = self.spans[table];
         pick(&self.alias, offset + row * cols, cols, rng.next_u64())
+    }
+
+    /// Checks that the policy's observation and decision counts are `n_obs` and `n_actions`
+    /// (a world's).
+    pub fn check_shape(&self, n_obs: usize, n_actions: usize) -> Result<()> {
+        let l = &self.layout;
+        if l.n_obs != n_obs || l.n_actions != n_actions {
+            return Err(Error::Mismatch(format!(
+                "the policy has {} observations and {} decisions, the world {n_obs} and {n_actions}",
+                l.n_obs, l.n_actions
+            )));
+        }
+        Ok(())
     }
 
     /// One step of top-down sampling (model §2). `memory[l - 1]` holds `m_l[t - 1]` on entry and

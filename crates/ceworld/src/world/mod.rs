@@ -4,7 +4,6 @@
 use crate::rng::EngineRng;
 
 pub mod cassandra;
-pub mod outside;
 pub mod pomdp;
 pub mod registry;
 pub mod session;

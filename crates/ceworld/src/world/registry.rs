@@ -11,6 +11,10 @@ use crate::world::World;
 use crate::world::pomdp::{PomdpParams, PomdpWorld};
 use crate::world::tracking::{TargetTracking, TrackingParams};
 
+/// The `"name"` of a world outside the engine (written in Python) in policy files and
+/// checkpoints: the engine records it but cannot rebuild it.
+pub const OUTSIDE: &str = "outside";
+
 /// Any registered world (the world's type, known at run time).
 #[derive(Clone, Debug, PartialEq)]
 pub enum AnyWorld {
@@ -94,7 +98,7 @@ impl AnyWorld {
     /// model file): a registered name, known parameters of the right kinds.
     pub fn check_description(value: &Value) -> Result<()> {
         let (name, params) = described(value)?;
-        if name == crate::world::outside::NAME {
+        if name == OUTSIDE {
             // A world that runs outside the engine: recorded, not rebuilt.
             return Ok(());
         }
@@ -113,7 +117,7 @@ impl AnyWorld {
     /// ones take their defaults; unknown ones are an error).
     pub fn from_json(value: &Value) -> Result<AnyWorld> {
         let (name, params) = described(value)?;
-        if name == crate::world::outside::NAME {
+        if name == OUTSIDE {
             return Err(Error::invalid(
                 "world",
                 format!("{value} runs outside the engine (written in Python): pass the world itself"),

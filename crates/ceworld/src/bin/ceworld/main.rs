@@ -330,7 +330,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     if let Some(progress) = progress {
         progress.finish();
     }
-    let file = PolicyFile::from_result(world, &result, &config);
+    let file = result.to_file(world, &config);
     file.save(&args.out)?;
     let e = &result.evaluation;
     if config.restarts > 1 {

@@ -135,9 +135,8 @@ mod tests {
         let mut laws = Laws::start(3, 2, 2, Template::Hold, 0.9);
         // Frequencies of node 1's successor after observation 0: 0.9 + 0.1/3 on itself.
         let draws = 20_000;
-        let held = (0..draws)
-            .filter(|&k| laws.draw(&mut stream(5, Purpose::Optimise, 0, k)).next[2] == 1)
-            .count() as f64
+        let held = (0..draws).filter(|&k| laws.draw(&mut stream(5, Purpose::Optimise, 0, k)).next[2] == 1).count()
+            as f64
             / draws as f64;
         let p = 0.9 + 0.1 / 3.0;
         assert!((held - p).abs() < 4.0 * (p * (1.0 - p) / draws as f64).sqrt(), "{held}");

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::json;
 
-use crate::ce::optimize::StopReason;
+use crate::ce::record::StopReason;
 use crate::control::{Flow, thread_pool};
 use crate::episodes::{Episodes, Streams};
 use crate::error::Result;

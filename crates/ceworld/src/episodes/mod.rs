@@ -1,16 +1,20 @@
 //! Where the optimiser's and the evaluation's episodes come from: a [`World`] run by the engine,
 //! or a world that runs outside it and is stepped in lockstep batches
-//! ([`crate::world::outside`]). The optimiser, the evaluation and policy files see only this.
+//! ([`outside`]). The optimiser, the evaluation and policy files see only this; one episode of
+//! a world run by the engine is [`run`].
+
+pub mod outside;
+pub mod run;
 
 use rayon::prelude::*;
 use serde_json::Value;
 
-use crate::ce::episode::{run_recorded, run_with};
 use crate::error::Result;
 use crate::policy::Hhmm;
 use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream, stream_key};
 use crate::world::World;
+use run::{run_controller, run_recorded, run_with};
 
 /// The random streams of a set of episodes: episode `k` draws from `(seed, purpose, iteration, k)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -126,20 +130,8 @@ impl<W: World> Episodes for W {
     }
 }
 
-/// Runs one episode of `world` under the deterministic `controller` and returns `V`: the
-/// randomness of `rng` is the world's alone.
-#[inline]
-pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> f64 {
-    let n_obs = world.n_observations();
-    let mut state = world.reset(rng);
-    let mut node = 0u32;
-    for _ in 0..world.horizon() {
-        let y = world.observe(&state, rng);
-        node = controller.next_node(node, y, n_obs);
-        world.step(&mut state, controller.act[node as usize] as usize, rng);
-        if world.done(&state) {
-            break;
-        }
-    }
-    world.reward(&state)
+/// Checks that the policy's observation and decision counts are the world's.
+pub fn check_fits<E: Episodes + ?Sized>(world: &E, policy: &Hhmm) -> Result<()> {
+    let shape = world.shape();
+    policy.check_shape(shape.observations, shape.decisions)
 }

@@ -13,16 +13,17 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 use serde_json::Value;
 
+use crate::episodes::check_fits;
+use crate::episodes::run::Rollout;
 use crate::episodes::{Batch, Episodes, Shape, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{Rollout, check_fits};
 use crate::policy::Hhmm;
 use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream_key};
 
 /// The `"name"` of a world outside the engine in policy files and checkpoints: the engine
 /// records it but cannot rebuild it.
-pub const NAME: &str = "outside";
+pub const NAME: &str = crate::world::registry::OUTSIDE;
 
 /// The longest episode of a world outside the engine (as the engine's own worlds).
 pub const MAX_HORIZON: usize = 1_000_000;

@@ -1,8 +1,41 @@
-//! One episode of world × policy, recorded compactly for counting.
+//! One episode of world × policy (recorded compactly for counting, or visited step by step), and
+//! one episode of world × deterministic controller.
 
 use crate::policy::Hhmm;
+use crate::policy::controller::Controller;
 use crate::rng::EngineRng;
 use crate::world::World;
+
+/// One recorded episode: step `t` is row `t` of every table.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Rollout {
+    /// Names of the numbers of one hidden state ([`World::state_labels`]).
+    pub x_labels: Vec<&'static str>,
+    /// The hidden state `x_t` as [`World::describe`] writes it, `T × x_labels.len()`, row-major.
+    pub x: Vec<i64>,
+    /// Observations `y_t`.
+    pub y: Vec<i64>,
+    /// Decisions `d_t`.
+    pub d: Vec<i64>,
+    /// Memory states `m_1[t] .. m_Λ[t]`, `T × Λ`, row-major.
+    pub memory: Vec<i64>,
+    /// Number of levels `Λ` (columns of `memory`).
+    pub levels: usize,
+    /// The episode's reward `V`.
+    pub reward: f64,
+}
+
+impl Rollout {
+    /// Number of steps recorded.
+    pub fn len(&self) -> usize {
+        self.y.len()
+    }
+
+    /// Whether no step was recorded.
+    pub fn is_empty(&self) -> bool {
+        self.y.is_empty()
+    }
+}
 
 /// The memory `m_1..m_Λ` of one episode: on the stack up to 16 levels (no allocation per
 /// episode), on the heap beyond.
@@ -69,6 +102,24 @@ where
         let d = policy.step(y, memory, t == 0, rng);
         visit(t, y, d, memory, &state);
         world.step(&mut state, d, rng);
+        if world.done(&state) {
+            break;
+        }
+    }
+    world.reward(&state)
+}
+
+/// Runs one episode of `world` under the deterministic `controller` and returns `V`: the
+/// randomness of `rng` is the world's alone.
+#[inline]
+pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> f64 {
+    let n_obs = world.n_observations();
+    let mut state = world.reset(rng);
+    let mut node = 0u32;
+    for _ in 0..world.horizon() {
+        let y = world.observe(&state, rng);
+        node = controller.next_node(node, y, n_obs);
+        world.step(&mut state, controller.act[node as usize] as usize, rng);
         if world.done(&state) {
             break;
         }

@@ -1,0 +1,158 @@
+//! What an optimisation records (model §3): each iteration's statistics, why it stopped, and its
+//! outcome.
+
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+
+use crate::ce::config::CeConfig;
+use crate::episodes::Episodes;
+use crate::evaluate::Evaluation;
+use crate::policy::Hhmm;
+use crate::policy::file::PolicyFile;
+
+/// One iteration's statistics.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IterationRecord {
+    /// Iteration number, from 0.
+    pub iteration: usize,
+    /// Mean reward of the N episodes.
+    pub mean: f64,
+    /// Best reward of the N episodes.
+    pub best: f64,
+    /// Smallest reward kept in the elite.
+    pub elite_threshold: f64,
+    /// Mean reward of the elite.
+    pub elite_mean: f64,
+    /// Seconds since the optimisation started, at the end of the iteration.
+    pub seconds: f64,
+    /// Whether the mean beat every earlier iteration's.
+    pub successful: bool,
+}
+
+/// Why an optimisation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// `patience` unsuccessful iterations in a row (converged).
+    Patience,
+    /// `max_iterations` reached.
+    MaxIterations,
+    /// `time_limit` reached.
+    TimeLimit,
+    /// An iteration's mean reached `target`.
+    Target,
+    /// The caller asked to stop (Ctrl-C).
+    Interrupted,
+}
+
+impl StopReason {
+    /// The snake-case name (`"patience"`, `"interrupted"`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::Patience => "patience",
+            StopReason::MaxIterations => "max_iterations",
+            StopReason::TimeLimit => "time_limit",
+            StopReason::Target => "target",
+            StopReason::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// The outcome of an optimisation.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CeResult {
+    /// The policy that drew the best iteration (highest mean reward).
+    #[serde(with = "crate::policy::flat::policy_serde")]
+    pub policy: Hhmm,
+    /// The policy after the last update.
+    #[serde(with = "crate::policy::flat::policy_serde")]
+    pub last_policy: Hhmm,
+    /// Index of the best iteration.
+    pub best_iteration: usize,
+    /// Per-iteration statistics.
+    pub history: Vec<IterationRecord>,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// `policy` evaluated on fresh episodes (an unbiased estimate, unlike the best mean).
+    pub evaluation: Evaluation,
+    /// Wall seconds, evaluation included (of every restart).
+    pub seconds: f64,
+    /// Which restart this is (0 for the run with the given seed).
+    pub restart: usize,
+    /// With `restarts > 1`: every run's score on the selection episodes, in run order (the
+    /// returned run is the first with the highest); empty for a single run.
+    pub restart_scores: Vec<f64>,
+}
+
+impl CeResult {
+    /// Whether the caller stopped it early.
+    pub fn interrupted(&self) -> bool {
+        self.stop == StopReason::Interrupted
+    }
+}
+
+impl CeResult {
+    /// The file of an optimisation's best policy, with its provenance (model §6).
+    pub fn to_file<E: Episodes + ?Sized>(&self, world: &E, config: &CeConfig) -> PolicyFile {
+        let result = self;
+        let best = &result.history[result.best_iteration];
+        let mut provenance = json!({
+                "seed": config.seed,
+                "samples": config.samples,
+                "rho": config.rho,
+                "alpha": config.smoothing,
+                "patience": config.patience,
+                "restarts": config.restarts,
+                "restart": result.restart,
+                "iterations": result.history.len(),
+                "best_iteration": result.best_iteration,
+                "best_iteration_mean": best.mean,
+                "mean_reward": result.evaluation.mean,
+                "evaluation_episodes": result.evaluation.episodes,
+                "evaluation_std_error": result.evaluation.std_error,
+                "stop": result.stop.as_str(),
+                "interrupted": result.interrupted(),
+                "version": crate::VERSION,
+        });
+        if let Some(d) = config.decision_smoothing {
+            provenance["decision_smoothing"] = json!(d);
+        }
+        if !result.restart_scores.is_empty() {
+            provenance["restart_scores"] = json!(result.restart_scores);
+        }
+        PolicyFile { policy: result.policy.clone(), world: world.description(), provenance }
+    }
+
+    /// The file of an optimisation's last policy: the provenance of [`CeResult::to_file`]
+    /// with `"policy": "last"`, without the figures that describe the best policy (its
+    /// evaluation and best iteration).
+    pub fn last_to_file<E: Episodes + ?Sized>(&self, world: &E, config: &CeConfig) -> PolicyFile {
+        let mut file = self.to_file(world, config);
+        if let Some(map) = file.provenance.as_object_mut() {
+            map.retain(|k, _| !(k == "mean_reward" || k.starts_with("evaluation") || k.starts_with("best_iteration")));
+            map.insert("policy".into(), json!("last"));
+        }
+        file.policy = self.last_policy.clone();
+        file
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stop_reasons_have_snake_case_names() {
+        let names: Vec<_> = [
+            StopReason::Patience,
+            StopReason::MaxIterations,
+            StopReason::TimeLimit,
+            StopReason::Target,
+            StopReason::Interrupted,
+        ]
+        .iter()
+        .map(|s| s.as_str())
+        .collect();
+        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted"]);
+    }
+}
