@@ -185,3 +185,23 @@ def test_repeat_previous_pays_only_the_memory_of_the_last_cards() -> None:
     # A policy that names the current card is right by chance only (k = 4 looks 3 cards back).
     policy = cehmm.optimize_controller(world, nodes=1, samples=4, episodes=1, max_iterations=1, progress=False)
     assert -0.6 < policy.value < -0.4
+
+
+def test_a_search_resumes_from_its_checkpoint(tmp_path: Path) -> None:
+    # Resuming mid-run is bit for bit (crates/ceworld/tests/controller_search.rs); here the
+    # Python side: a checkpoint is written, a finished search resumed is the same search, a
+    # missing checkpoint starts afresh, and other settings are refused.
+    maze = TMaze(corridor=3)
+    settings = dict(nodes=4, samples=60, episodes=4, max_iterations=6, restarts=2, progress=False)
+    whole = cehmm.optimize_controller(maze, **settings)
+    path = tmp_path / "search.ckpt"
+    first = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings)
+    assert path.exists()
+    again = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings)
+    for result in (first, again):
+        assert result.run_values == whole.run_values and result.value == whole.value
+        assert np.array_equal(result.history["best"], whole.history["best"])
+    with pytest.raises(cehmm.InvalidArgumentError, match="resume"):
+        cehmm.optimize_controller(maze, resume=True, **settings)
+    with pytest.raises(cehmm.PolicyMismatchError, match="nodes 4, not 5"):
+        cehmm.optimize_controller(maze, checkpoint=path, resume=True, **{**settings, "nodes": 5})

@@ -358,6 +358,10 @@ def optimize_controller(
     injections: int | None = None,
     template: str | None = None,
     template_weight: float | None = None,
+    target: float | None = None,
+    checkpoint: str | os.PathLike[str] | None = None,
+    checkpoint_every: float | None = None,
+    resume: bool | None = None,
 ) -> ControllerOutcome: ...
 
 @final

@@ -4,12 +4,15 @@ tabular world or from sampled episodes on any (model §8): :func:`optimize_contr
 
 from __future__ import annotations
 
+import os
+import signal
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from . import _core
+from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
 from .world import core_world
@@ -79,6 +82,7 @@ def optimize_controller(
     smoothing: float = CONTROLLER_DEFAULTS["smoothing"],
     patience: int = CONTROLLER_DEFAULTS["patience"],
     max_iterations: int | None = None,
+    target: float | None = None,
     time_limit: float | None = None,
     tolerance: float = CONTROLLER_DEFAULTS["tolerance"],
     seed: int = CONTROLLER_DEFAULTS["seed"],
@@ -92,6 +96,9 @@ def optimize_controller(
     template: str = CONTROLLER_DEFAULTS["template"],
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     progress: bool = True,
+    checkpoint: str | os.PathLike[str] | None = None,
+    checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
+    resume: bool = False,
     score: Score | None = None,
     discount: float | None = None,
     horizon: int | None = None,
@@ -130,6 +137,7 @@ def optimize_controller(
         patience: iterations without progress before a run stops (or, with ``injections``
             left, escapes).
         max_iterations: stop a run after this many iterations.
+        target: stop once the best value so far reaches this.
         time_limit: stop after this many seconds (all runs together), checked before each
             controller's evaluation on exact values, before each iteration on sampled ones; an
             iteration it cuts does not refit the laws.
@@ -151,6 +159,15 @@ def optimize_controller(
             ``q + 1``) or ``"mixed"`` (both); the search keeps of it what pays.
         template_weight: the template's weight in the first successor laws, ``0 <= w < 1``.
         progress: print a live progress line on stderr.
+        checkpoint: a file where the whole state of the search (laws, best controller so far,
+            history, finished restarts) is saved every ``checkpoint_every`` seconds and whenever
+            it stops (the end, Ctrl-C), through a temporary file renamed over it.
+        checkpoint_every: seconds between two checkpoints.
+        resume: continue from ``checkpoint`` when that file exists (else start afresh): with
+            the same world and settings (stopping rules, ``time_limit`` and ``threads`` may
+            differ) the result is the one an uninterrupted search gives, bit for bit. With a
+            checkpoint, a SIGTERM that finds its default action stops the search like Ctrl-C,
+            saves the checkpoint, then ends the process as SIGTERM asks.
         score: for a world written in Python, an episode's value from its
             ``(observations, decisions, rewards)`` (default: the sum of the rewards).
         discount: for a world written in Python, the discount of the default score.
@@ -171,30 +188,39 @@ def optimize_controller(
         19.37
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    raw = _core.optimize_controller(
-        core_world(world, **options),
-        nodes=nodes,
-        samples=samples,
-        rho=rho,
-        smoothing=smoothing,
-        patience=patience,
-        max_iterations=max_iterations,
-        time_limit=time_limit,
-        tolerance=tolerance,
-        seed=seed,
-        threads=threads,
-        restarts=restarts,
-        progress=progress,
-        value=value,
-        episodes=episodes,
-        candidates=candidates,
-        select_episodes=select_episodes,
-        eval_episodes=eval_episodes,
-        injection=injection,
-        injections=injections,
-        template=template,
-        template_weight=template_weight,
-    )
+    with _sigterm_interrupts(checkpoint is not None) as terminated:
+        raw = _core.optimize_controller(
+            core_world(world, **options),
+            nodes=nodes,
+            samples=samples,
+            rho=rho,
+            smoothing=smoothing,
+            patience=patience,
+            max_iterations=max_iterations,
+            time_limit=time_limit,
+            tolerance=tolerance,
+            seed=seed,
+            threads=threads,
+            restarts=restarts,
+            progress=progress,
+            value=value,
+            episodes=episodes,
+            candidates=candidates,
+            select_episodes=select_episodes,
+            eval_episodes=eval_episodes,
+            injection=injection,
+            injections=injections,
+            template=template,
+            template_weight=template_weight,
+            target=target,
+            checkpoint=checkpoint,
+            checkpoint_every=checkpoint_every,
+            resume=resume,
+        )
+    if terminated:
+        # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)
     return ControllerResult(
         policy=Policy(raw.policy),
         value=raw.value,

@@ -7,10 +7,10 @@ use pyo3::types::PyDict;
 
 use ceworld::ce::controller::{
     ControllerConfig, ControllerIteration, ControllerOutcome, Template, ValueKind, Valued,
-    optimize_controller as search,
+    optimize_controller_with as search,
 };
 use ceworld::progress::LiveLine;
-use ceworld::{Error, PolicyFile, StopReason};
+use ceworld::{Checkpointing, Error, PolicyFile, StopReason};
 
 use crate::convert::{count, flag, optional_count, optional_real, real, seed, text};
 use crate::errors::{OrRaise, detached};
@@ -115,7 +115,8 @@ impl PyControllerOutcome {
 #[pyo3(signature = (
     world, *, nodes, samples, rho, smoothing, patience, max_iterations, time_limit, tolerance, seed, threads, restarts,
     progress, value=None, episodes=None, candidates=None, select_episodes=None, eval_episodes=None, injection=None,
-    injections=None, template=None, template_weight=None
+    injections=None, template=None, template_weight=None, target=None, checkpoint=None, checkpoint_every=None,
+    resume=None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn optimize_controller(
@@ -142,6 +143,10 @@ pub fn optimize_controller(
     injections: Option<&Bound<'_, PyAny>>,
     template: Option<&Bound<'_, PyAny>>,
     template_weight: Option<&Bound<'_, PyAny>>,
+    target: Option<&Bound<'_, PyAny>>,
+    checkpoint: Option<std::path::PathBuf>,
+    checkpoint_every: Option<&Bound<'_, PyAny>>,
+    resume: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyControllerOutcome> {
     let d = ControllerConfig::default();
     let config = ControllerConfig {
@@ -151,6 +156,7 @@ pub fn optimize_controller(
         smoothing: real("smoothing", smoothing)?,
         patience: count("patience", patience)?,
         max_iterations: optional_count("max_iterations", max_iterations)?,
+        target: optional_real("target", target)?,
         time_limit: optional_real("time_limit", time_limit)?,
         tolerance: real("tolerance", tolerance)?,
         seed: self::seed("seed", seed)?,
@@ -169,13 +175,20 @@ pub fn optimize_controller(
         template_weight: optional_real("template_weight", template_weight)?.unwrap_or(d.template_weight),
     };
     let progress = flag("progress", progress)?;
+    let every = optional_real("checkpoint_every", checkpoint_every)?.unwrap_or(ceworld::ce::resume::DEFAULT_EVERY);
+    let resume = resume.map(|r| flag("resume", r)).transpose()?.unwrap_or(false);
+    if checkpoint.is_none() && resume {
+        return Err(Error::invalid("resume", "True without a checkpoint (give checkpoint=PATH)")).or_raise();
+    }
+    let checkpointing = checkpoint.map(|path| Checkpointing { path, every, resume });
+    let checkpointing = checkpointing.as_ref();
     let kind = value.map(|v| text("value", v)).transpose()?.map(|v| ValueKind::parse(&v)).transpose().or_raise()?;
     let world = WorldArg::of(world)?;
     let mut signals = Signals::default();
     let outcome = match &world {
         WorldArg::Engine(w) => {
             let any = &w.world;
-            detached(py, || run(Valued::of(any, kind)?, &config, progress, &mut signals))
+            detached(py, || run(Valued::of(any, kind)?, &config, checkpointing, progress, &mut signals))
         }
         WorldArg::Outside(_) => {
             if kind == Some(ValueKind::Exact) {
@@ -185,7 +198,7 @@ pub fn optimize_controller(
                 ))
                 .or_raise();
             }
-            world.run(py, |w| run(Valued::Sampled(w), &config, progress, &mut signals))
+            world.run(py, |w| run(Valued::Sampled(w), &config, checkpointing, progress, &mut signals))
         }
     };
     signals.finish(py)?;
@@ -196,11 +209,12 @@ pub fn optimize_controller(
 fn run(
     world: Valued<'_>,
     config: &ControllerConfig,
+    checkpointing: Option<&Checkpointing>,
     progress: bool,
     signals: &mut Signals,
 ) -> ceworld::Result<PyControllerOutcome> {
     let mut line = progress.then(LiveLine::stderr);
-    let outcome = search(world, config, |r| {
+    let outcome = search(world, config, checkpointing, |r| {
         if let Some(line) = &mut line {
             line.update(format!(
                 "run {} iter {:>5}  mean {:>10.4}  elite>= {:>10.4}  best {:>10.4}  {:>6.1}s",

@@ -27,7 +27,7 @@ pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     defaults.set_item("eval_episodes", ce.eval_episodes)?;
     defaults.set_item("memory_update", ce.memory_update.as_str())?;
     defaults.set_item("restarts", ce.restarts)?;
-    defaults.set_item("checkpoint_every", ceworld::ce::checkpoint::DEFAULT_EVERY)?;
+    defaults.set_item("checkpoint_every", ceworld::ce::resume::DEFAULT_EVERY)?;
     m.add("CE_DEFAULTS", defaults)?;
     let c = ceworld::ControllerConfig::default();
     let controller = PyDict::new(py);

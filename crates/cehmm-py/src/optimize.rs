@@ -138,7 +138,7 @@ pub fn optimize(
         restarts: count("restarts", restarts)?,
     };
     let progress = flag("progress", progress)?;
-    let every = optional_real("checkpoint_every", checkpoint_every)?.unwrap_or(ceworld::ce::checkpoint::DEFAULT_EVERY);
+    let every = optional_real("checkpoint_every", checkpoint_every)?.unwrap_or(ceworld::ce::resume::DEFAULT_EVERY);
     let resume = resume.map(|r| flag("resume", r)).transpose()?.unwrap_or(false);
     let checkpointing = checkpoint.map(|path| Checkpointing { path, every, resume });
     if checkpointing.is_none() && resume {

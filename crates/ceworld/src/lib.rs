@@ -28,12 +28,14 @@ pub mod qlearn;
 pub mod rng;
 pub mod world;
 
-pub use ce::checkpoint::{CeCheckpoint, Checkpointing};
+pub use ce::checkpoint::CeCheckpoint;
 pub use ce::config::{CeConfig, DEFAULT_LEVELS, MemoryUpdate, STRONG_PATIENCE, WEAK_PATIENCE};
 pub use ce::controller::{ControllerConfig, ControllerOutcome, optimize_controller};
 pub use ce::init::{Init, clock_policy, random_policy, uniform_policy};
 pub use ce::optimize::{optimize, optimize_with};
-pub use ce::record::{CeResult, IterationRecord, StopReason};
+pub use ce::record::{CeResult, IterationRecord};
+pub use ce::resume::Checkpointing;
+pub use ce::stopping::StopReason;
 pub use control::{Flow, catch_panics, thread_pool};
 pub use episodes::{Episodes, Shape};
 pub use error::{Error, Result};

@@ -210,3 +210,67 @@ fn sampled_values_agree_with_exact_values() {
         }
     }
 }
+
+#[test]
+fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
+    use ceworld::Checkpointing;
+    use ceworld::ce::controller::optimize_controller_with;
+    let dir = std::env::temp_dir().join(format!("ceworld-controller-resume-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let tiger = world("tiger.95.POMDP", 30, None);
+    let config = ControllerConfig {
+        nodes: 3,
+        samples: 80,
+        rho: 0.1,
+        patience: 4,
+        max_iterations: Some(7),
+        restarts: 2,
+        episodes: 5,
+        select_episodes: 30,
+        eval_episodes: 40,
+        injections: 1,
+        ..ControllerConfig::default()
+    };
+    for (name, valued) in [("exact", Valued::Exact(&tiger)), ("sampled", Valued::Sampled(&tiger))] {
+        let whole = optimize_controller(valued, &config, |_| Flow::Continue).unwrap();
+        let path = dir.join(format!("{name}.ckpt"));
+        let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: true };
+        // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.
+        let mut sessions = 0;
+        let resumed = loop {
+            sessions += 1;
+            let mut seen = 0;
+            let out = optimize_controller_with(valued, &config, Some(&checkpointing), |_| {
+                seen += 1;
+                if seen == 3 { Flow::Stop } else { Flow::Continue }
+            })
+            .unwrap();
+            if out.stop != StopReason::Interrupted {
+                break out;
+            }
+            assert!(sessions < 20, "{name}: never ends");
+        };
+        assert!(sessions > 2, "{name}: {sessions} sessions");
+        let strip = |h: &[ceworld::ce::controller::ControllerIteration]| {
+            h.iter()
+                .map(|r| (r.restart, r.iteration, r.mean, r.elite_min, r.max, r.best, r.injected))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(strip(&resumed.history), strip(&whole.history), "{name}");
+        assert_eq!(
+            (&resumed.policy, resumed.value, &resumed.run_values),
+            (&whole.policy, whole.value, &whole.run_values)
+        );
+        // Another search's settings are refused, naming what differs.
+        let other = ControllerConfig { rho: 0.2, ..config.clone() };
+        let e = optimize_controller_with(valued, &other, Some(&checkpointing), |_| Flow::Continue).unwrap_err();
+        assert!(e.to_string().contains("rho 0.1, not 0.2"), "{e}");
+    }
+    // An exact search's checkpoint is not a sampled one's.
+    let path = dir.join("exact.ckpt");
+    let checkpointing = Checkpointing { path, every: 1e9, resume: true };
+    let e = optimize_controller_with(Valued::Sampled(&tiger), &config, Some(&checkpointing), |_| Flow::Continue)
+        .unwrap_err();
+    assert!(e.to_string().contains("value exact, not sampled"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -112,6 +112,16 @@ pub const WEAK_PATIENCE: usize = 100;
 pub const STRONG_PATIENCE: usize = 500;
 
 impl CeConfig {
+    /// The stopping rules (model §3).
+    pub fn stop_rules(&self) -> crate::ce::stopping::StopRules {
+        crate::ce::stopping::StopRules {
+            target: self.target,
+            patience: self.patience,
+            max_iterations: self.max_iterations,
+            time_limit: self.time_limit,
+        }
+    }
+
     /// Number of elite episodes, `ceil(ρN)`.
     pub fn elite_count(&self) -> usize {
         ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)

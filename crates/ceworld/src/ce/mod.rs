@@ -11,3 +11,5 @@ pub mod limits;
 pub mod optimize;
 pub mod posterior;
 pub mod record;
+pub mod resume;
+pub mod stopping;

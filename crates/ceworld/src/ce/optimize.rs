@@ -4,12 +4,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::ce::checkpoint::{Checkpointing, FinishedRun, RunState, Saver};
+use crate::ce::checkpoint::{CeRun, FinishedRun, RunState};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
 pub use crate::ce::limits::MAX_RECORD_BYTES;
 use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
-use crate::ce::record::{CeResult, IterationRecord, StopReason};
+use crate::ce::record::{CeResult, IterationRecord};
+use crate::ce::resume::{Checkpointing, Saver};
+use crate::ce::stopping::StopReason;
 use crate::control::{Flow, thread_pool};
 use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
@@ -49,7 +51,7 @@ pub fn optimize_with<E: Episodes + ?Sized>(
 ) -> Result<CeResult> {
     config.validate()?;
     check_fits(world, &initial)?;
-    let mut saver = Saver::new(world, config, checkpointing)?;
+    let mut saver = Saver::<CeRun>::new(world, config, checkpointing)?;
     if let Some(run) = &saver.state.run
         && run.policy.levels() != initial.levels()
     {
@@ -112,7 +114,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     config: &CeConfig,
     resume: Option<RunState>,
     observer: &mut dyn FnMut(&IterationRecord) -> Flow,
-    saver: &mut Saver<'_>,
+    saver: &mut Saver<'_, CeRun>,
 ) -> Result<CeResult> {
     if config.memory_update == MemoryUpdate::ForwardBackward {
         crate::ce::posterior::check_supported(initial.layout())?;
@@ -223,19 +225,9 @@ fn optimize_once<E: Episodes + ?Sized>(
 }
 
 /// The stopping rule that holds after iteration `record` with `unsuccessful` unsuccessful
-/// iterations in a row, if any (model §3), in the order target, patience, maximum, time.
+/// iterations in a row, if any (model §3): the shared rules on the iteration's mean.
 fn stopping_rule(config: &CeConfig, record: &IterationRecord, unsuccessful: usize) -> Option<StopReason> {
-    if config.target.is_some_and(|t| record.mean >= t) {
-        Some(StopReason::Target)
-    } else if unsuccessful >= config.patience {
-        Some(StopReason::Patience)
-    } else if config.max_iterations.is_some_and(|m| record.iteration + 1 >= m) {
-        Some(StopReason::MaxIterations)
-    } else if config.time_limit.is_some_and(|t| record.seconds >= t) {
-        Some(StopReason::TimeLimit)
-    } else {
-        None
-    }
+    config.stop_rules().check(record.iteration + 1, record.mean, unsuccessful, record.seconds)
 }
 
 /// The elite's counts, laid out as the policy's tables (model §3): integers summed per chunk of

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use crate::ce::config::CeConfig;
+use crate::ce::stopping::StopReason;
 use crate::episodes::Episodes;
 use crate::evaluate::Evaluation;
 use crate::policy::Hhmm;
@@ -27,35 +28,6 @@ pub struct IterationRecord {
     pub seconds: f64,
     /// Whether the mean beat every earlier iteration's.
     pub successful: bool,
-}
-
-/// Why an optimisation stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// `patience` unsuccessful iterations in a row (converged).
-    Patience,
-    /// `max_iterations` reached.
-    MaxIterations,
-    /// `time_limit` reached.
-    TimeLimit,
-    /// An iteration's mean reached `target`.
-    Target,
-    /// The caller asked to stop (Ctrl-C).
-    Interrupted,
-}
-
-impl StopReason {
-    /// The snake-case name (`"patience"`, `"interrupted"`, ...).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            StopReason::Patience => "patience",
-            StopReason::MaxIterations => "max_iterations",
-            StopReason::TimeLimit => "time_limit",
-            StopReason::Target => "target",
-            StopReason::Interrupted => "interrupted",
-        }
-    }
 }
 
 /// The outcome of an optimisation.
@@ -134,25 +106,5 @@ impl CeResult {
         }
         file.policy = self.last_policy.clone();
         file
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn stop_reasons_have_snake_case_names() {
-        let names: Vec<_> = [
-            StopReason::Patience,
-            StopReason::MaxIterations,
-            StopReason::TimeLimit,
-            StopReason::Target,
-            StopReason::Interrupted,
-        ]
-        .iter()
-        .map(|s| s.as_str())
-        .collect();
-        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted"]);
     }
 }

@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use ceworld::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller};
+use ceworld::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller_with};
 use ceworld::progress::LiveLine;
 use ceworld::{Flow, Result};
 
-use crate::{WorldArgs, stop, world_from};
+use crate::{CheckpointArgs, WorldArgs, stop, world_from};
 
 #[derive(clap::Args)]
 pub(crate) struct ControllerArgs {
@@ -32,6 +32,9 @@ pub(crate) struct ControllerArgs {
     /// Stop after this many iterations.
     #[arg(long)]
     max_iterations: Option<usize>,
+    /// Stop once the best value so far reaches this.
+    #[arg(long)]
+    target: Option<f64>,
     /// Stop after this many seconds (checked before each controller's evaluation; an iteration
     /// it cuts does not refit the laws).
     #[arg(long)]
@@ -84,6 +87,8 @@ pub(crate) struct ControllerArgs {
     /// Where to save the best controller (a policy file, model §6).
     #[arg(long, default_value = "policy.json", value_name = "FILE.json")]
     out: PathBuf,
+    #[command(flatten)]
+    checkpoint: CheckpointArgs,
     /// No progress line.
     #[arg(long, short)]
     quiet: bool,
@@ -99,6 +104,7 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         smoothing: args.smoothing,
         patience: args.patience,
         max_iterations: args.max_iterations,
+        target: args.target,
         time_limit: args.time_limit,
         tolerance: args.tolerance,
         seed: args.seed,
@@ -114,9 +120,10 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         template_weight: args.template_weight,
     };
     config.validate()?;
+    let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
     stop::install();
     let mut line = (!args.quiet).then(LiveLine::stderr);
-    let outcome = optimize_controller(valued, &config, |r| {
+    let outcome = optimize_controller_with(valued, &config, checkpointing.as_ref(), |r| {
         if let Some(line) = &mut line {
             if r.iteration == 0 && r.restart > 0 {
                 line.note(&format!("restart {} of {}", r.restart + 1, config.restarts));

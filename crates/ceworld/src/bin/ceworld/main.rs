@@ -200,20 +200,38 @@ struct OptimizeArgs {
     quiet: bool,
 }
 
-/// Checkpoints of a long optimisation.
+/// Checkpoints of a long optimisation (every optimiser's).
 #[derive(clap::Args)]
-struct CheckpointArgs {
+pub(crate) struct CheckpointArgs {
     /// Save the whole state of the run to this file every --checkpoint-every seconds and
     /// whenever it stops (the end, Ctrl-C, SIGTERM); see --resume.
     #[arg(long, value_name = "FILE")]
     checkpoint: Option<PathBuf>,
     /// Seconds between two checkpoints.
-    #[arg(long, default_value_t = ceworld::ce::checkpoint::DEFAULT_EVERY, requires = "checkpoint")]
+    #[arg(long, default_value_t = ceworld::ce::resume::DEFAULT_EVERY, requires = "checkpoint")]
     checkpoint_every: f64,
     /// Continue from --checkpoint when that file exists (else start afresh), with the same
     /// world and settings: the final policy is the one an uninterrupted run gives, bit for bit.
     #[arg(long, requires = "checkpoint")]
     resume: bool,
+}
+
+impl CheckpointArgs {
+    /// The checkpoints asked for, checked; says when a run resumes (unless `quiet`).
+    pub(crate) fn checkpointing(&self, quiet: bool) -> Result<Option<ceworld::Checkpointing>> {
+        let checkpointing = self.checkpoint.as_ref().map(|path| ceworld::Checkpointing {
+            path: path.clone(),
+            every: self.checkpoint_every,
+            resume: self.resume,
+        });
+        if let Some(c) = &checkpointing {
+            c.validate()?;
+            if !quiet && c.resume && c.path.exists() {
+                eprintln!("ceworld: resuming from {}", c.path.display());
+            }
+        }
+        Ok(checkpointing)
+    }
 }
 
 /// The world `name` of the registry with `--case` (target tracking's case) and every
@@ -303,18 +321,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     }
     let mut progress = (!args.quiet).then(|| CeProgress::new(config.patience, LiveLine::stderr()));
     let mut runs = 0;
-    let c = &args.checkpoint;
-    let checkpointing = c.checkpoint.as_ref().map(|path| ceworld::Checkpointing {
-        path: path.clone(),
-        every: c.checkpoint_every,
-        resume: c.resume,
-    });
-    if let Some(c) = &checkpointing {
-        c.validate()?;
-        if !args.quiet && c.resume && c.path.exists() {
-            eprintln!("ceworld: resuming from {}", c.path.display());
-        }
-    }
+    let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
     let result = optimize_with(world, initial, &config, checkpointing.as_ref(), |r| {
         if let Some(progress) = &mut progress {
             if r.iteration == 0 {

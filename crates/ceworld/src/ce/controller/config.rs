@@ -1,7 +1,7 @@
 //! The settings of a controller search (model §8): how values are known, the memory the laws
 //! start from, and every number of the search.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
@@ -13,7 +13,7 @@ pub const MAX_RESTARTS: usize = 10_000;
 pub const MAX_ITERATION_EPISODES: usize = 100_000_000;
 
 /// How each controller's value is known.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ValueKind {
     /// Computed exactly (a tabular world only).
@@ -43,7 +43,7 @@ impl ValueKind {
 
 /// The memory a search starts from (its first laws): every successor law is the uniform law
 /// with `template_weight` of it moved onto the template's successor.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Template {
     /// No template: uniform laws.
@@ -93,7 +93,7 @@ impl Template {
 
 /// The settings of a controller search; `Default` gives settings that suit the small files of
 /// `data/pomdp/` (model §8).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ControllerConfig {
     /// Nodes of the controller, `n`.
     pub nodes: usize,
@@ -108,6 +108,8 @@ pub struct ControllerConfig {
     pub patience: usize,
     /// Stop after this many iterations.
     pub max_iterations: Option<usize>,
+    /// Stop once the best value so far reaches this.
+    pub target: Option<f64>,
     /// Stop after this many seconds (checked before each controller's evaluation on exact
     /// values, before each iteration on sampled ones: an iteration cut by it does not refit the
     /// laws).
@@ -154,6 +156,7 @@ impl Default for ControllerConfig {
             smoothing: 0.1,
             patience: 50,
             max_iterations: None,
+            target: None,
             time_limit: None,
             tolerance: 1e-6,
             seed: 0,
@@ -172,6 +175,16 @@ impl Default for ControllerConfig {
 }
 
 impl ControllerConfig {
+    /// The stopping rules (model §8); the time limit covers every run together.
+    pub fn stop_rules(&self) -> crate::ce::stopping::StopRules {
+        crate::ce::stopping::StopRules {
+            target: self.target,
+            patience: self.patience,
+            max_iterations: self.max_iterations,
+            time_limit: self.time_limit,
+        }
+    }
+
     /// Number of elite controllers, `ceil(ρN)`.
     pub fn elite_count(&self) -> usize {
         ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)
@@ -199,6 +212,11 @@ impl ControllerConfig {
         }
         if self.max_iterations == Some(0) {
             return Err(Error::invalid("max_iterations", "0 (expected at least 1, or none)"));
+        }
+        if let Some(t) = self.target
+            && !t.is_finite()
+        {
+            return Err(Error::invalid("target", format!("{t} (expected a finite number)")));
         }
         if let Some(t) = self.time_limit
             && !(t > 0.0 && t.is_finite())

@@ -7,7 +7,8 @@ use crate::ce::controller::config::Template;
 use crate::policy::controller::Controller;
 
 /// The categorical laws the controllers are drawn from.
-pub(super) struct Laws {
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Laws {
     n: usize,
     n_actions: usize,
     y1: usize,
@@ -47,6 +48,16 @@ impl Laws {
             }
         }
         laws
+    }
+
+    /// Nodes of the controllers drawn.
+    pub(super) fn nodes(&self) -> usize {
+        self.n
+    }
+
+    /// Decisions and observations of the controllers drawn.
+    pub(super) fn shape(&self) -> (usize, usize) {
+        (self.n_actions, self.y1)
     }
 
     pub(super) fn draw(&self, rng: &mut crate::rng::EngineRng) -> Controller {

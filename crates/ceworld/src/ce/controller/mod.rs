@@ -10,17 +10,16 @@
 //! frequencies (smoothed by α), repeat. On sampled values the best so far is chosen on fixed
 //! selection episodes and the controller returned is valued on fresh ones.
 
+pub mod checkpoint;
 pub mod config;
 mod laws;
 pub mod value;
-
-use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::json;
 
-use crate::ce::record::StopReason;
+use crate::ce::stopping::StopReason;
 use crate::control::{Flow, thread_pool};
 use crate::episodes::{Episodes, Streams};
 use crate::error::Result;
@@ -34,8 +33,11 @@ pub use config::{ControllerConfig, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAM
 use laws::Laws;
 pub use value::{ControllerValue, Valued};
 
+use crate::ce::resume::{Checkpointing, Saver};
+use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
+
 /// One iteration of a controller search.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct ControllerIteration {
     /// The run (0-based; see `restarts`).
     pub restart: usize,
@@ -139,6 +141,19 @@ impl ControllerOutcome {
 pub fn optimize_controller(
     world: Valued<'_>,
     config: &ControllerConfig,
+    observe: impl FnMut(&ControllerIteration) -> Flow,
+) -> Result<ControllerOutcome> {
+    optimize_controller_with(world, config, None, observe)
+}
+
+/// [`optimize_controller`], saving the whole state to `checkpointing.path` every
+/// `checkpointing.every` seconds and whenever it stops, and, with `checkpointing.resume`,
+/// continuing from that file when it exists: the result is then the one an uninterrupted search
+/// gives, bit for bit (the seconds and a time limit aside).
+pub fn optimize_controller_with(
+    world: Valued<'_>,
+    config: &ControllerConfig,
+    checkpointing: Option<&Checkpointing>,
     mut observe: impl FnMut(&ControllerIteration) -> Flow,
 ) -> Result<ControllerOutcome> {
     config.validate()?;
@@ -150,44 +165,64 @@ pub fn optimize_controller(
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
     }
+    let settings = SearchSettings { config: config.clone(), value: world.kind() };
+    let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing)?;
+    if let Some(run) = &saver.state.run
+        && (run.laws.nodes() != config.nodes || run.laws.shape() != (n_actions, y1))
+    {
+        return Err(crate::error::Error::CheckpointMismatch("the checkpoint's laws do not fit this search".into()));
+    }
     let pool = thread_pool(config.threads)?;
     let values = match world {
         Valued::Exact(w) => Values::Exact(ControllerValue::new(w, config.tolerance)),
         Valued::Sampled(w) => Values::Sampled(w),
     };
     let search = Search { config, values, y1, n_actions, pool };
-    let started = Instant::now();
-    let mut outcome: Option<ControllerOutcome> = None;
-    for restart in 0..config.restarts {
-        let run = search.run(restart_seed(config.seed, restart), restart, started, &mut observe)?;
+    let mut interrupted = None;
+    while saver.state.restart < config.restarts {
+        let restart = saver.state.restart;
+        let resume = saver.state.run.take();
+        // A later run starts only while time is left (the first always runs).
+        if restart > 0 && resume.is_none() && config.time_limit.is_some_and(|t| saver.seconds() >= t) {
+            break;
+        }
+        let run = search.run(restart_seed(config.seed, restart), restart, resume, &mut saver, &mut observe)?;
+        if run.stop == StopReason::Interrupted {
+            // The checkpoint keeps this run's state, to be continued.
+            interrupted = Some(run);
+            break;
+        }
         let stop = run.stop;
-        outcome = Some(match outcome {
-            Some(mut kept) => {
-                kept.run_values.push(run.value);
-                if run.value > kept.value {
-                    kept.policy = run.policy;
-                    kept.value = run.value;
-                    kept.best_iteration = run.best_iteration;
-                    kept.restart = restart;
-                }
-                kept.history.extend(run.history);
-                kept.stop = stop;
-                kept
-            }
-            None => run,
-        });
-        if matches!(stop, StopReason::Interrupted | StopReason::TimeLimit) {
+        saver.state.finished.push(run);
+        saver.state.restart += 1;
+        saver.save(true)?;
+        if stop == StopReason::TimeLimit {
             break;
         }
     }
-    let mut outcome = outcome.expect("at least one run");
+    let runs: Vec<&FinishedSearch> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
+    // The first run with the highest value.
+    let best = (0..runs.len()).fold(0, |b, i| if runs[i].value > runs[b].value { i } else { b });
+    let kept = runs[best];
+    let mut outcome = ControllerOutcome {
+        policy: kept.controller.to_hhmm(y1, n_actions)?,
+        value: kept.value,
+        kind: world.kind(),
+        evaluation: None,
+        best_iteration: kept.best_iteration,
+        restart: best,
+        run_values: runs.iter().map(|r| r.value).collect(),
+        history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
+        stop: runs.last().expect("at least one run").stop,
+        seconds: 0.0,
+    };
     if let Valued::Sampled(w) = world {
         // The value reported comes from episodes the controller was not chosen on.
         let evaluation = search.pool.install(|| evaluate(w, &outcome.policy, config.eval_episodes, config.seed))?;
         outcome.value = evaluation.mean;
         outcome.evaluation = Some(evaluation);
     }
-    outcome.seconds = started.elapsed().as_secs_f64();
+    outcome.seconds = saver.seconds();
     Ok(outcome)
 }
 
@@ -256,123 +291,134 @@ impl Search<'_> {
         Ok(values.chunks(m).map(|v| v.iter().sum::<f64>() / m as f64).collect())
     }
 
-    /// One run from uniform laws with `seed`.
+    /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
+    /// controller on exact values; on sampled ones the best on the selection episodes of its best
+    /// `candidates` distinct controllers (`order`: best first).
+    fn candidate(&self, drawn: &[(f64, Controller)], order: &[usize]) -> Result<(f64, usize)> {
+        if let Values::Exact(_) = self.values {
+            return Ok((drawn[order[0]].0, order[0]));
+        }
+        let mut few: Vec<usize> = Vec::new();
+        for &i in order {
+            if few.len() == self.config.candidates {
+                break;
+            }
+            if few.iter().all(|&j| drawn[j].1 != drawn[i].1) {
+                few.push(i);
+            }
+        }
+        let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
+        let scores = self.select_scores(&controllers)?;
+        let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
+        Ok((scores[b], few[b]))
+    }
+
+    /// One run with `seed`, from its first laws or from the saved state `resume`.
     fn run(
         &self,
         seed: u64,
         restart: usize,
-        started: Instant,
+        resume: Option<SearchState>,
+        saver: &mut Saver<'_, ControllerSearch>,
         observe: &mut impl FnMut(&ControllerIteration) -> Flow,
-    ) -> Result<ControllerOutcome> {
+    ) -> Result<FinishedSearch> {
         let config = self.config;
+        let rules = config.stop_rules();
         let elite_size = config.elite_count();
-        let mut laws = Laws::start(config.nodes, self.n_actions, self.y1, config.template, config.template_weight);
-        let mut best: Option<(f64, Controller, usize)> = None;
-        let mut history = Vec::new();
-        let mut since_progress = 0;
-        let mut best_threshold = f64::NEG_INFINITY;
-        let mut injections = 0;
-        let over_time = || config.time_limit.is_some_and(|s| started.elapsed().as_secs_f64() >= s);
-        let stop = loop {
-            let iteration = history.len();
-            let drawn = self.draw_and_value(&laws, seed, iteration, &over_time)?;
-            let cut = drawn.iter().any(Option::is_none);
-            let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
-            let elite_size = elite_size.min(drawn.len());
-            let mut order: Vec<usize> = (0..drawn.len()).collect();
-            // Highest value first; equal values keep their draw order (deterministic).
-            order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
-            let top = order[0];
-            let threshold = drawn[order[elite_size - 1]].0;
-            // Progress is a better controller or a higher elite threshold (Rubinstein's γ_t): a
-            // lucky early draw must not stop a search whose laws are still climbing.
-            let mut progress = threshold > best_threshold + config.tolerance;
-            best_threshold = best_threshold.max(threshold);
-            // The iteration's candidate for the best so far: its best controller on exact
-            // values; on sampled ones the best on the selection episodes of its best few.
-            let candidate = match self.values {
-                Values::Exact(_) => (drawn[top].0, top),
-                Values::Sampled(_) => {
-                    let mut few: Vec<usize> = Vec::new();
-                    for &i in &order {
-                        if few.len() == config.candidates {
-                            break;
-                        }
-                        if few.iter().all(|&j| drawn[j].1 != drawn[i].1) {
-                            few.push(i);
-                        }
-                    }
-                    let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
-                    let scores = self.select_scores(&controllers)?;
-                    let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
-                    (scores[b], few[b])
+        let SearchState { mut laws, mut best, mut history, mut since_progress, best_threshold, mut injections } =
+            resume.unwrap_or_else(|| SearchState {
+                laws: Laws::start(config.nodes, self.n_actions, self.y1, config.template, config.template_weight),
+                best: None,
+                history: Vec::new(),
+                since_progress: 0,
+                best_threshold: None,
+                injections: 0,
+            });
+        let mut best_threshold = best_threshold.unwrap_or(f64::NEG_INFINITY);
+        // A resumed run whose last iteration meets a stopping rule ends at once.
+        let resumed_stop = history.last().and_then(|r| rules.check(history.len(), r.best, since_progress, r.seconds));
+        let stop = if let Some(stop) = resumed_stop {
+            stop
+        } else {
+            loop {
+                let iteration = history.len();
+                // The time limit as an instant, so that the exact values can check it as they go.
+                let deadline = config.time_limit.map(|t| {
+                    std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
+                });
+                let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
+                let drawn = self.draw_and_value(&laws, seed, iteration, &over_time)?;
+                let cut = drawn.iter().any(Option::is_none);
+                let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
+                let elite_size = elite_size.min(drawn.len());
+                let mut order: Vec<usize> = (0..drawn.len()).collect();
+                // Highest value first; equal values keep their draw order (deterministic).
+                order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
+                let top = order[0];
+                let threshold = drawn[order[elite_size - 1]].0;
+                // Progress is a better controller or a higher elite threshold (Rubinstein's γ_t): a
+                // lucky early draw must not stop a search whose laws are still climbing.
+                let mut progress = threshold > best_threshold + config.tolerance;
+                best_threshold = best_threshold.max(threshold);
+                let candidate = self.candidate(&drawn, &order)?;
+                if best.as_ref().is_none_or(|(b, _, _)| candidate.0 > *b + config.tolerance) {
+                    best = Some((candidate.0, drawn[candidate.1].1.clone(), iteration));
+                    progress = true;
                 }
-            };
-            if best.as_ref().is_none_or(|(b, _, _)| candidate.0 > *b + config.tolerance) {
-                best = Some((candidate.0, drawn[candidate.1].1.clone(), iteration));
-                progress = true;
-            }
-            since_progress = if progress { 0 } else { since_progress + 1 };
-            // Ties at the threshold are left out when some controllers beat it: a plateau of
-            // equal values (e.g. tiger's "always listen") would otherwise fill the elite and hold
-            // the laws there.
-            let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
-            let kept = if above > 0 { above } else { elite_size };
-            if !cut {
-                // A cut iteration's elite would favour whichever controllers came first.
-                let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
-                laws.refit(&elite, config.smoothing);
-            }
-            // Patience run out with injections left: mix in the uniform law and go on.
-            let injected = since_progress >= config.patience && injections < config.injections;
-            if injected {
-                laws.inject(config.injection);
-                injections += 1;
-                since_progress = 0;
-                best_threshold = f64::NEG_INFINITY;
-            }
-            let record = ControllerIteration {
-                restart,
-                iteration,
-                mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
-                elite_min: threshold,
-                max: drawn[top].0,
-                best: best.as_ref().map_or(f64::NAN, |b| b.0),
-                concentration: laws.concentration(),
-                evaluated: drawn.len(),
-                injected,
-                seconds: started.elapsed().as_secs_f64(),
-            };
-            let flow = observe(&record);
-            history.push(record);
-            if flow == Flow::Stop {
-                break StopReason::Interrupted;
-            }
-            if since_progress >= config.patience {
-                break StopReason::Patience;
-            }
-            if config.max_iterations.is_some_and(|m| history.len() >= m) {
-                break StopReason::MaxIterations;
-            }
-            if cut || over_time() {
-                break StopReason::TimeLimit;
+                since_progress = if progress { 0 } else { since_progress + 1 };
+                // Ties at the threshold are left out when some controllers beat it: a plateau of
+                // equal values (e.g. tiger's "always listen") would otherwise fill the elite and hold
+                // the laws there.
+                let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
+                let kept = if above > 0 { above } else { elite_size };
+                if !cut {
+                    // A cut iteration's elite would favour whichever controllers came first.
+                    let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
+                    laws.refit(&elite, config.smoothing);
+                }
+                // Patience run out with injections left: mix in the uniform law and go on.
+                let injected = since_progress >= config.patience && injections < config.injections;
+                if injected {
+                    laws.inject(config.injection);
+                    injections += 1;
+                    since_progress = 0;
+                    best_threshold = f64::NEG_INFINITY;
+                }
+                let record = ControllerIteration {
+                    restart,
+                    iteration,
+                    mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
+                    elite_min: threshold,
+                    max: drawn[top].0,
+                    best: best.as_ref().map_or(f64::NAN, |b| b.0),
+                    concentration: laws.concentration(),
+                    evaluated: drawn.len(),
+                    injected,
+                    seconds: saver.seconds(),
+                };
+                let flow = observe(&record);
+                let (value, seconds) = (record.best, record.seconds);
+                history.push(record);
+                let stop = if flow == Flow::Stop {
+                    Some(StopReason::Interrupted)
+                } else {
+                    rules.check(history.len(), value, since_progress, seconds).or(cut.then_some(StopReason::TimeLimit))
+                };
+                let threshold = (best_threshold > f64::NEG_INFINITY).then_some(best_threshold);
+                saver.save_run(stop.is_some(), || SearchState {
+                    laws: laws.clone(),
+                    best: best.clone(),
+                    history: history.clone(),
+                    since_progress,
+                    best_threshold: threshold,
+                    injections,
+                })?;
+                if let Some(stop) = stop {
+                    break stop;
+                }
             }
         };
         let (value, controller, best_iteration) = best.expect("at least one iteration");
-        Ok(ControllerOutcome {
-            policy: controller.to_hhmm(self.y1, self.n_actions)?,
-            value,
-            kind: match self.values {
-                Values::Exact(_) => ValueKind::Exact,
-                Values::Sampled(_) => ValueKind::Sampled,
-            },
-            evaluation: None,
-            best_iteration,
-            restart,
-            run_values: vec![value],
-            history,
-            stop,
-            seconds: started.elapsed().as_secs_f64(),
-        })
+        Ok(FinishedSearch { value, controller, best_iteration, history, stop })
     }
 }

@@ -1,0 +1,105 @@
+//! The checkpoints of the controller search (model §8), on the spine of every optimiser's
+//! ([`crate::ce::resume`]): the state of a run between two iterations is its laws, the best
+//! controller so far, the history, the iterations without progress, the elite threshold's
+//! record and the escapes taken; the runs already over keep their best controller.
+
+use serde::{Deserialize, Serialize};
+
+use crate::ce::controller::ControllerIteration;
+use crate::ce::controller::config::{ControllerConfig, ValueKind};
+use crate::ce::controller::laws::Laws;
+use crate::ce::resume::{Checkpoint, Resumable};
+use crate::ce::stopping::StopReason;
+use crate::policy::controller::Controller;
+
+/// The `"format"` of a controller search's checkpoint file.
+pub const FORMAT: &str = "cehmm-controller-checkpoint";
+
+/// The state of one run between two iterations.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SearchState {
+    /// The laws the next iteration draws from.
+    pub laws: Laws,
+    /// The best controller so far: its value, itself and the iteration that drew it.
+    pub best: Option<(f64, Controller, usize)>,
+    /// Every iteration so far.
+    pub history: Vec<ControllerIteration>,
+    /// Iterations in a row without progress.
+    pub since_progress: usize,
+    /// The highest elite threshold so far (`None`: none since the start or the last escape).
+    pub best_threshold: Option<f64>,
+    /// Escapes taken.
+    pub injections: usize,
+}
+
+/// A run that is over.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FinishedSearch {
+    /// Its best value (exact, or on the selection episodes).
+    pub value: f64,
+    /// Its best controller.
+    pub controller: Controller,
+    /// The iteration that drew it.
+    pub best_iteration: usize,
+    /// Its iterations.
+    pub history: Vec<ControllerIteration>,
+    /// Why it stopped.
+    pub stop: StopReason,
+}
+
+/// What a checkpoint records of a search's settings: the settings and how values are known.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SearchSettings {
+    /// The settings.
+    pub config: ControllerConfig,
+    /// Exact or sampled values.
+    pub value: ValueKind,
+}
+
+/// The controller search as a [`Resumable`] optimiser.
+#[derive(Clone, Debug)]
+pub struct ControllerSearch;
+
+/// The whole state of a controller search between two iterations.
+pub type ControllerCheckpoint = Checkpoint<ControllerSearch>;
+
+impl Resumable for ControllerSearch {
+    const FORMAT: &'static str = FORMAT;
+    type Config = SearchSettings;
+    type Run = SearchState;
+    type Finished = FinishedSearch;
+
+    fn shaping(settings: &SearchSettings) -> Vec<(&'static str, String)> {
+        let c = &settings.config;
+        vec![
+            ("value", settings.value.as_str().into()),
+            ("nodes", c.nodes.to_string()),
+            ("samples", c.samples.to_string()),
+            ("rho", c.rho.to_string()),
+            ("smoothing", c.smoothing.to_string()),
+            ("tolerance", c.tolerance.to_string()),
+            ("seed", c.seed.to_string()),
+            ("restarts", c.restarts.to_string()),
+            ("episodes", c.episodes.to_string()),
+            ("candidates", c.candidates.to_string()),
+            ("select_episodes", c.select_episodes.to_string()),
+            ("eval_episodes", c.eval_episodes.to_string()),
+            ("injection", c.injection.to_string()),
+            ("injections", c.injections.to_string()),
+            ("template", c.template.as_str().into()),
+            ("template_weight", c.template_weight.to_string()),
+        ]
+    }
+
+    fn non_finite(run: Option<&SearchState>, finished: &[FinishedSearch]) -> Option<String> {
+        let records = run.iter().flat_map(|r| &r.history).chain(finished.iter().flat_map(|f| &f.history));
+        for r in records {
+            for (name, v) in [("mean", r.mean), ("elite_min", r.elite_min), ("max", r.max), ("best", r.best)] {
+                if !v.is_finite() {
+                    return Some(format!("run {} iteration {}'s {name} ({v})", r.restart, r.iteration));
+                }
+            }
+        }
+        None
+    }
+}

@@ -1,0 +1,225 @@
+//! The checkpoints of every optimiser (the CE method of model §3 and the controller search of
+//! model §8): the whole state of an optimisation between two iterations, saved atomically, from
+//! which it continues exactly as if it had never stopped.
+//!
+//! Each optimiser draws iteration `i` from streams keyed by `(seed, i, k)` (model §3,
+//! reproducibility), so the state between iterations holds no random generator: an optimiser
+//! ([`Resumable`]) says what its run in progress and its finished runs hold, and which of its
+//! settings shape the run. The file is one JSON document (floats written in their shortest
+//! exact form and read back exactly) with the world and the settings; resuming refuses a
+//! checkpoint of another world, another optimiser or other settings, naming the first that
+//! differs.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::episodes::Episodes;
+use crate::error::{Error, Result};
+
+/// The version of the format written.
+pub const VERSION: u64 = 1;
+/// Largest checkpoint file read (bytes); a larger file is refused before it is read.
+pub const MAX_CHECKPOINT_BYTES: u64 = 1 << 34;
+/// Seconds between two checkpoints when none is given.
+pub const DEFAULT_EVERY: f64 = 60.0;
+
+/// Where and how often to save checkpoints, and whether to start from one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpointing {
+    /// The checkpoint file (written atomically: a reader never sees a partial file).
+    pub path: std::path::PathBuf,
+    /// Seconds between two saves (also saved when the run stops, however it stops).
+    pub every: f64,
+    /// Continue from `path` when it exists (a missing file starts a fresh run).
+    pub resume: bool,
+}
+
+impl Checkpointing {
+    /// Refuses a period that is not a positive number of seconds.
+    pub fn validate(&self) -> Result<()> {
+        if self.every.is_nan() || self.every <= 0.0 {
+            return Err(Error::invalid(
+                "checkpoint_every",
+                format!("{} (expected a positive number of seconds)", self.every),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// What an optimiser keeps in its checkpoints.
+pub trait Resumable {
+    /// The `"format"` of its checkpoint files.
+    const FORMAT: &'static str;
+    /// Its settings.
+    type Config: Clone + Serialize + DeserializeOwned;
+    /// The state of a run between two iterations.
+    type Run: Clone + Serialize + DeserializeOwned;
+    /// A run that is over.
+    type Finished: Clone + Serialize + DeserializeOwned;
+    /// The settings that shape a run, by name, as text (the stopping rules, the time limit and
+    /// the thread count may change between sessions).
+    fn shaping(config: &Self::Config) -> Vec<(&'static str, String)>;
+    /// The first number of the state that JSON cannot hold exactly, if any.
+    fn non_finite(run: Option<&Self::Run>, finished: &[Self::Finished]) -> Option<String>;
+}
+
+/// The whole state of an optimisation between two iterations.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct Checkpoint<K: Resumable> {
+    /// [`Resumable::FORMAT`].
+    pub format: String,
+    /// [`VERSION`].
+    pub version: u64,
+    /// The world's JSON (model §6).
+    pub world: Value,
+    /// The settings.
+    pub config: K::Config,
+    /// The run in progress (0 for the run with the given seed).
+    pub restart: usize,
+    /// The runs already over, in order.
+    pub finished: Vec<K::Finished>,
+    /// The state of the run in progress (`None`: it has not started).
+    pub run: Option<K::Run>,
+    /// Wall seconds spent so far, every session together.
+    pub seconds: f64,
+    /// The engine that wrote it.
+    pub engine_version: String,
+}
+
+impl<K: Resumable> Checkpoint<K> {
+    /// The state of an optimisation that has not started.
+    pub fn fresh(world: Value, config: &K::Config) -> Checkpoint<K> {
+        Checkpoint {
+            format: K::FORMAT.into(),
+            version: VERSION,
+            world,
+            config: config.clone(),
+            restart: 0,
+            finished: Vec::new(),
+            run: None,
+            seconds: 0.0,
+            engine_version: crate::VERSION.into(),
+        }
+    }
+
+    /// Saves the checkpoint through a temporary file renamed over `path`.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        if let Some(what) = K::non_finite(self.run.as_ref(), &self.finished) {
+            return Err(Error::Internal(format!("checkpoint: {what} is not a finite number")));
+        }
+        crate::files::write_atomic(path, |out| serde_json::to_writer(out, self).map_err(std::io::Error::other))
+    }
+
+    /// Reads a checkpoint saved by [`Checkpoint::save`].
+    pub fn load(path: &Path) -> Result<Checkpoint<K>> {
+        let bytes = crate::files::read_limited(path, MAX_CHECKPOINT_BYTES, "checkpoint")?;
+        let bad = |message: String| Error::PolicyFormat { path: Some(path.to_path_buf()), message };
+        let doc: Value =
+            serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a checkpoint: invalid JSON ({e})")))?;
+        match doc.get("format").and_then(Value::as_str) {
+            Some(f) if f == K::FORMAT => {}
+            _ => return Err(bad(format!("not a checkpoint (expected \"format\": \"{}\")", K::FORMAT))),
+        }
+        match doc.get("version").and_then(Value::as_u64) {
+            Some(VERSION) => {}
+            other => return Err(bad(format!("checkpoint version {other:?} (expected {VERSION})"))),
+        }
+        serde_json::from_value(doc).map_err(|e| bad(format!("invalid checkpoint: {e}")))
+    }
+
+    /// Refuses a checkpoint of another world or other settings (those that shape the run).
+    pub fn check_matches(&self, world: &Value, config: &K::Config) -> Result<()> {
+        let mismatch = |what: &str, saved: String, given: String| {
+            Err(Error::CheckpointMismatch(format!(
+                "the checkpoint was made with {what} {saved}, not {given} (resume with the same settings, or start afresh)"
+            )))
+        };
+        if &self.world != world {
+            return mismatch("the world", self.world.to_string(), world.to_string());
+        }
+        for ((name, saved), (_, given)) in K::shaping(&self.config).into_iter().zip(K::shaping(config)) {
+            if saved != given {
+                return mismatch(name, saved, given);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Keeps the checkpoint of a run and saves it when due.
+pub(crate) struct Saver<'a, K: Resumable> {
+    checkpointing: Option<&'a Checkpointing>,
+    /// What is saved: the runs over, the run in progress when saving.
+    pub state: Checkpoint<K>,
+    /// Seconds spent by earlier sessions.
+    pub before: f64,
+    started: Instant,
+    last_save: Instant,
+}
+
+impl<'a, K: Resumable> Saver<'a, K> {
+    /// The state of a fresh run, or the checkpoint to resume from.
+    pub fn new<E: Episodes + ?Sized>(
+        world: &E,
+        config: &K::Config,
+        checkpointing: Option<&'a Checkpointing>,
+    ) -> Result<Saver<'a, K>> {
+        let world_json = world.description();
+        let state = match checkpointing {
+            Some(c) => {
+                c.validate()?;
+                if c.resume && c.path.exists() {
+                    let saved = Checkpoint::<K>::load(&c.path)?;
+                    saved.check_matches(&world_json, config)?;
+                    Some(saved)
+                } else {
+                    None
+                }
+            }
+            None => None,
+        };
+        let state = state.unwrap_or_else(|| Checkpoint::fresh(world_json, config));
+        let now = Instant::now();
+        Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now })
+    }
+
+    /// Seconds spent, every session together.
+    pub fn seconds(&self) -> f64 {
+        self.before + self.started.elapsed().as_secs_f64()
+    }
+
+    /// Whether a save is due (always when `force`).
+    fn due(&self, force: bool) -> bool {
+        self.checkpointing.is_some_and(|c| force || self.last_save.elapsed().as_secs_f64() >= c.every)
+    }
+
+    /// Saves the state when checkpointing and a save is due (always when `force`).
+    pub fn save(&mut self, force: bool) -> Result<()> {
+        if let Some(c) = self.checkpointing
+            && self.due(force)
+        {
+            self.state.seconds = self.seconds();
+            self.state.save(&c.path)?;
+            self.last_save = Instant::now();
+        }
+        Ok(())
+    }
+
+    /// Saves the state with the run in progress, `run()`, when a save is due (always when
+    /// `force`); the run is built only then.
+    pub fn save_run(&mut self, force: bool, run: impl FnOnce() -> K::Run) -> Result<()> {
+        if self.due(force) {
+            self.state.run = Some(run());
+            let saved = self.save(true);
+            self.state.run = None;
+            saved?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,97 @@
+//! The stopping rules every optimiser shares (model §3, §8): a target reached, patience run out,
+//! the most iterations, the time limit; checked in that order after each iteration.
+
+use serde::{Deserialize, Serialize};
+
+/// Why an optimisation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// `patience` unsuccessful iterations in a row (converged).
+    Patience,
+    /// `max_iterations` reached.
+    MaxIterations,
+    /// `time_limit` reached.
+    TimeLimit,
+    /// An iteration's mean reached `target`.
+    Target,
+    /// The caller asked to stop (Ctrl-C).
+    Interrupted,
+}
+
+impl StopReason {
+    /// The snake-case name (`"patience"`, `"interrupted"`, ...).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::Patience => "patience",
+            StopReason::MaxIterations => "max_iterations",
+            StopReason::TimeLimit => "time_limit",
+            StopReason::Target => "target",
+            StopReason::Interrupted => "interrupted",
+        }
+    }
+}
+
+/// When an optimisation stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopRules {
+    /// Stop once the optimiser's value (an iteration's mean for the CE method, the best so far
+    /// for the controller search) reaches this.
+    pub target: Option<f64>,
+    /// Stop after this many iterations in a row without progress.
+    pub patience: usize,
+    /// Stop after this many iterations.
+    pub max_iterations: Option<usize>,
+    /// Stop after this many seconds.
+    pub time_limit: Option<f64>,
+}
+
+impl StopRules {
+    /// The rule that holds after `iterations` iterations whose value is `value`, with
+    /// `unsuccessful` iterations in a row without progress, `seconds` into the run, if any.
+    pub fn check(&self, iterations: usize, value: f64, unsuccessful: usize, seconds: f64) -> Option<StopReason> {
+        if self.target.is_some_and(|t| value >= t) {
+            Some(StopReason::Target)
+        } else if unsuccessful >= self.patience {
+            Some(StopReason::Patience)
+        } else if self.max_iterations.is_some_and(|m| iterations >= m) {
+            Some(StopReason::MaxIterations)
+        } else if self.time_limit.is_some_and(|t| seconds >= t) {
+            Some(StopReason::TimeLimit)
+        } else {
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stop_reasons_have_snake_case_names() {
+        let names: Vec<_> = [
+            StopReason::Patience,
+            StopReason::MaxIterations,
+            StopReason::TimeLimit,
+            StopReason::Target,
+            StopReason::Interrupted,
+        ]
+        .iter()
+        .map(|s| s.as_str())
+        .collect();
+        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted"]);
+    }
+
+    #[test]
+    fn rules_hold_at_their_bounds_in_order() {
+        let rules = StopRules { target: Some(10.0), patience: 3, max_iterations: Some(5), time_limit: Some(2.0) };
+        assert_eq!(rules.check(1, 9.9, 2, 1.9), None);
+        assert_eq!(rules.check(1, 10.0, 3, 2.0), Some(StopReason::Target));
+        assert_eq!(rules.check(5, 9.0, 3, 2.0), Some(StopReason::Patience));
+        assert_eq!(rules.check(5, 9.0, 2, 2.0), Some(StopReason::MaxIterations));
+        assert_eq!(rules.check(4, 9.0, 2, 2.0), Some(StopReason::TimeLimit));
+        let none = StopRules { target: None, patience: 1, max_iterations: None, time_limit: None };
+        assert_eq!(none.check(1_000_000, f64::INFINITY, 0, 1e9), None);
+    }
+}
