@@ -77,8 +77,8 @@ def optimize_controller(
     *,
     value: str | None = None,
     episodes: int = CONTROLLER_DEFAULTS["episodes"],
-    samples: int = CONTROLLER_DEFAULTS["samples"],
-    rho: float = CONTROLLER_DEFAULTS["rho"],
+    samples: int | None = None,
+    rho: float | None = None,
     smoothing: float = CONTROLLER_DEFAULTS["smoothing"],
     patience: int = CONTROLLER_DEFAULTS["patience"],
     max_iterations: int | None = None,
@@ -93,7 +93,7 @@ def optimize_controller(
     eval_episodes: int = CONTROLLER_DEFAULTS["eval_episodes"],
     injection: float = CONTROLLER_DEFAULTS["injection"],
     injections: int = CONTROLLER_DEFAULTS["injections"],
-    template: str = CONTROLLER_DEFAULTS["template"],
+    template: str | None = None,
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     progress: bool = True,
     checkpoint: str | os.PathLike[str] | None = None,
@@ -131,8 +131,9 @@ def optimize_controller(
         value: ``"exact"`` (a :class:`PomdpWorld` only; its default) or ``"sampled"`` (the
             default of every other world).
         episodes: sampled values: episodes per controller and iteration.
-        samples: controllers per iteration.
-        rho: selective rate, ``0 < rho < 1``.
+        samples: controllers per iteration (default 2000 on exact values, 1000 on sampled:
+            ``cehmm.controller.CONTROLLER_DEFAULTS`` and its ``"sampled"`` entry).
+        rho: selective rate, ``0 < rho < 1`` (default 0.02 on exact values, 0.05 on sampled).
         smoothing: ``0 < smoothing <= 1``.
         patience: iterations without progress before a run stops (or, with ``injections``
             left, escapes).
@@ -156,7 +157,10 @@ def optimize_controller(
             (0: stop).
         template: the memory the laws start from: ``"uniform"``, ``"hold"`` (a latch: every
             node but the start node stays where it is), ``"clock"`` (node ``q`` moves on to
-            ``q + 1``) or ``"mixed"`` (both); the search keeps of it what pays.
+            ``q + 1``), ``"mixed"`` (both) or ``"window"`` (the last observations: node ``q``
+            moves to ``(q · Y + y) mod nodes``, so ``Y^k`` nodes hold the last ``k``); the
+            search keeps of it what pays (default ``"uniform"`` on exact values, ``"mixed"`` on
+            sampled: measured in docs/memory-benchmark.md).
         template_weight: the template's weight in the first successor laws, ``0 <= w < 1``.
         progress: print a live progress line on stderr.
         checkpoint: a file where the whole state of the search (laws, best controller so far,

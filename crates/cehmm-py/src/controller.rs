@@ -113,7 +113,7 @@ impl PyControllerOutcome {
 /// iterations and the result comes back marked interrupted.
 #[pyfunction]
 #[pyo3(signature = (
-    world, *, nodes, samples, rho, smoothing, patience, max_iterations, time_limit, tolerance, seed, threads, restarts,
+    world, *, nodes, samples=None, rho=None, smoothing, patience, max_iterations, time_limit, tolerance, seed, threads, restarts,
     progress, value=None, episodes=None, candidates=None, select_episodes=None, eval_episodes=None, injection=None,
     injections=None, template=None, template_weight=None, target=None, checkpoint=None, checkpoint_every=None,
     resume=None
@@ -123,8 +123,8 @@ pub fn optimize_controller(
     py: Python<'_>,
     world: &Bound<'_, PyAny>,
     nodes: &Bound<'_, PyAny>,
-    samples: &Bound<'_, PyAny>,
-    rho: &Bound<'_, PyAny>,
+    samples: Option<&Bound<'_, PyAny>>,
+    rho: Option<&Bound<'_, PyAny>>,
     smoothing: &Bound<'_, PyAny>,
     patience: &Bound<'_, PyAny>,
     max_iterations: Option<&Bound<'_, PyAny>>,
@@ -148,11 +148,18 @@ pub fn optimize_controller(
     checkpoint_every: Option<&Bound<'_, PyAny>>,
     resume: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyControllerOutcome> {
-    let d = ControllerConfig::default();
+    let kind = value.map(|v| text("value", v)).transpose()?.map(|v| ValueKind::parse(&v)).transpose().or_raise()?;
+    let world = WorldArg::of(world)?;
+    // The defaults of the kind of value the search will use.
+    let resolved = match &world {
+        WorldArg::Engine(w) => Valued::of(&w.world, kind).or_raise()?.kind(),
+        WorldArg::Outside(_) => ValueKind::Sampled,
+    };
+    let d = ControllerConfig::defaults_for(resolved);
     let config = ControllerConfig {
         nodes: count("nodes", nodes)?,
-        samples: count("samples", samples)?,
-        rho: real("rho", rho)?,
+        samples: optional_count("samples", samples)?.unwrap_or(d.samples),
+        rho: optional_real("rho", rho)?.unwrap_or(d.rho),
         smoothing: real("smoothing", smoothing)?,
         patience: count("patience", patience)?,
         max_iterations: optional_count("max_iterations", max_iterations)?,
@@ -182,8 +189,6 @@ pub fn optimize_controller(
     }
     let checkpointing = checkpoint.map(|path| Checkpointing { path, every, resume });
     let checkpointing = checkpointing.as_ref();
-    let kind = value.map(|v| text("value", v)).transpose()?.map(|v| ValueKind::parse(&v)).transpose().or_raise()?;
-    let world = WorldArg::of(world)?;
     let mut signals = Signals::default();
     let outcome = match &world {
         WorldArg::Engine(w) => {

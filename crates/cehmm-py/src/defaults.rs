@@ -47,6 +47,12 @@ pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     controller.set_item("injections", c.injections)?;
     controller.set_item("template", c.template.as_str())?;
     controller.set_item("template_weight", c.template_weight)?;
+    let s = ceworld::ControllerConfig::defaults_for(ceworld::ce::controller::ValueKind::Sampled);
+    let sampled = PyDict::new(py);
+    sampled.set_item("samples", s.samples)?;
+    sampled.set_item("rho", s.rho)?;
+    sampled.set_item("template", s.template.as_str())?;
+    controller.set_item("sampled", sampled)?;
     m.add("CONTROLLER_DEFAULTS", controller)?;
     m.add("INIT_CHOICES", ceworld::Init::ALL.map(ceworld::Init::as_str).to_vec())?;
     m.add("MEMORY_UPDATES", ceworld::MemoryUpdate::ALL.map(ceworld::MemoryUpdate::as_str).to_vec())?;

@@ -126,3 +126,70 @@ pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut En
     }
     world.reward(&state)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{Purpose, stream};
+
+    /// Observation `t mod 2`; a step pays 1 when its decision is the observation; the value adds
+    /// half a point per step run, so that where an episode stops shows; it may stop after
+    /// `stop` steps.
+    struct Parity {
+        stop: Option<usize>,
+    }
+
+    impl World for Parity {
+        type State = (usize, f64);
+        fn n_observations(&self) -> usize {
+            2
+        }
+        fn n_decisions(&self) -> usize {
+            2
+        }
+        fn horizon(&self) -> usize {
+            4
+        }
+        fn reset(&self, _: &mut EngineRng) -> (usize, f64) {
+            (0, 0.0)
+        }
+        fn observe(&self, state: &(usize, f64), _: &mut EngineRng) -> usize {
+            state.0 % 2
+        }
+        fn step(&self, state: &mut (usize, f64), decision: usize, _: &mut EngineRng) {
+            state.1 += f64::from(u8::from(decision == state.0 % 2)) + 0.5;
+            state.0 += 1;
+        }
+        fn reward(&self, state: &(usize, f64)) -> f64 {
+            state.1
+        }
+        fn done(&self, state: &(usize, f64)) -> bool {
+            self.stop.is_some_and(|s| state.0 >= s)
+        }
+        fn to_json(&self) -> serde_json::Value {
+            serde_json::json!({"name": "parity"})
+        }
+    }
+
+    #[test]
+    fn a_controller_moves_on_each_observation_and_stops_where_the_world_ends() {
+        let rng = &mut stream(0, Purpose::Evaluate, 0, 0);
+        // Node 1 + y after observation y, whose decision is y: every step pays.
+        let echo = Controller { act: vec![1, 0, 1], next: vec![1, 2, 1, 2, 1, 2] };
+        // Node 0 forever, deciding 1: the odd steps pay.
+        let stuck = Controller { act: vec![1, 0, 0], next: vec![0; 6] };
+        let whole = Parity { stop: None };
+        assert_eq!(run_controller(&whole, &echo, rng), 4.0 + 2.0);
+        assert_eq!(run_controller(&whole, &stuck, rng), 2.0 + 2.0);
+        let short = Parity { stop: Some(3) };
+        assert_eq!(run_controller(&short, &echo, rng), 3.0 + 1.5);
+        // The same as the controller's HHMM, step by step, and as a rollout.
+        let rollout = crate::evaluate::rollout(&short, &echo.to_hhmm(2, 2).unwrap(), 0, 0).unwrap();
+        assert_eq!((rollout.len(), rollout.is_empty(), rollout.reward), (3, false, 4.5));
+        assert_eq!((&rollout.y, &rollout.d), (&vec![0, 1, 0], &vec![0, 1, 0]));
+        let empty = Rollout { y: Vec::new(), ..rollout };
+        assert!(empty.is_empty());
+        let policy = echo.to_hhmm(2, 2).unwrap();
+        assert_eq!(run_with(&short, &policy, rng, |_, _, _, _, _| {}), 4.5);
+    }
+}

@@ -17,11 +17,13 @@ pub(crate) struct ControllerArgs {
     #[arg(long, default_value_t = ControllerConfig::default().nodes)]
     nodes: usize,
     /// Controllers drawn per iteration (N).
-    #[arg(long, default_value_t = ControllerConfig::default().samples)]
-    samples: usize,
-    /// Selective rate: the best ceil(rho*N) controllers refit the laws; 0 < rho < 1.
-    #[arg(long, default_value_t = ControllerConfig::default().rho)]
-    rho: f64,
+    /// [default: 2000 on exact values, 1000 on sampled ones]
+    #[arg(long)]
+    samples: Option<usize>,
+    /// Selective rate: the best ceil(rho*N) controllers refit the laws; 0 < rho < 1 [default:
+    /// 0.02 on exact values, 0.05 on sampled ones].
+    #[arg(long)]
+    rho: Option<f64>,
     /// Smoothing alpha in (0, 1]: p := alpha*frequency + (1-alpha)*p.
     #[arg(long, default_value_t = ControllerConfig::default().smoothing)]
     smoothing: f64,
@@ -78,9 +80,10 @@ pub(crate) struct ControllerArgs {
     #[arg(long, default_value_t = ControllerConfig::default().injections)]
     injections: usize,
     /// The memory the laws start from: uniform, hold (a latch: nodes stay), clock (node q moves
-    /// to q+1) or mixed (both).
-    #[arg(long, default_value = ControllerConfig::default().template.as_str(), value_parser = parse_template)]
-    template: Template,
+    /// to q+1), mixed (both) or window (the last observations: q moves to (q*Y + y) mod n).
+    /// [default: uniform on exact values, mixed on sampled ones]
+    #[arg(long, value_parser = parse_template)]
+    template: Option<Template>,
     /// The weight of the template in the first successor laws, in [0, 1).
     #[arg(long, default_value_t = ControllerConfig::default().template_weight)]
     template_weight: f64,
@@ -97,10 +100,11 @@ pub(crate) struct ControllerArgs {
 pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     let world = world_from(&args.world)?;
     let valued = Valued::of(&world, args.value)?;
+    let d = ControllerConfig::defaults_for(valued.kind());
     let config = ControllerConfig {
         nodes: args.nodes,
-        samples: args.samples,
-        rho: args.rho,
+        samples: args.samples.unwrap_or(d.samples),
+        rho: args.rho.unwrap_or(d.rho),
         smoothing: args.smoothing,
         patience: args.patience,
         max_iterations: args.max_iterations,
@@ -116,7 +120,7 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         eval_episodes: args.eval_episodes,
         injection: args.injection,
         injections: args.injections,
-        template: args.template,
+        template: args.template.unwrap_or(d.template),
         template_weight: args.template_weight,
     };
     config.validate()?;

@@ -55,31 +55,37 @@ pub enum Template {
     Clock,
     /// The weight shared by `Hold` and `Clock` (the start node: all on `Clock`).
     Mixed,
+    /// A window of the last observations (a shift register): after observation `y` node `q`
+    /// moves to `(q·Y + y) mod n`, so that with `n = Y^k` nodes a node is the last `k`
+    /// observations (frame stacking).
+    Window,
 }
 
 impl Template {
     /// Every template, in the order of their names.
-    pub const ALL: [Template; 4] = [Template::Uniform, Template::Hold, Template::Clock, Template::Mixed];
+    pub const ALL: [Template; 5] =
+        [Template::Uniform, Template::Hold, Template::Clock, Template::Mixed, Template::Window];
 
-    /// `"uniform"`, `"hold"`, `"clock"` or `"mixed"`.
+    /// `"uniform"`, `"hold"`, `"clock"`, `"mixed"` or `"window"`.
     pub fn as_str(self) -> &'static str {
         match self {
             Template::Uniform => "uniform",
             Template::Hold => "hold",
             Template::Clock => "clock",
             Template::Mixed => "mixed",
+            Template::Window => "window",
         }
     }
 
     /// The template named `name`, or an error listing them.
     pub fn parse(name: &str) -> Result<Template> {
         Template::ALL.into_iter().find(|t| t.as_str() == name).ok_or_else(|| {
-            Error::invalid("template", format!("{name:?} (expected one of uniform, hold, clock, mixed)"))
+            Error::invalid("template", format!("{name:?} (expected one of uniform, hold, clock, mixed, window)"))
         })
     }
 
-    /// The successors the template gives node `q` of `n` (whatever it observes).
-    pub(super) fn successors(self, q: usize, n: usize) -> Vec<usize> {
+    /// The successors the template gives node `q` of `n` after observation `y` of `n_obs`.
+    pub(super) fn successors(self, q: usize, y: usize, n: usize, n_obs: usize) -> Vec<usize> {
         let hold = (q > 0).then_some(q);
         let clock = Some((q + 1).min(n - 1));
         match self {
@@ -87,6 +93,7 @@ impl Template {
             Template::Hold => hold.into_iter().collect(),
             Template::Clock => clock.into_iter().collect(),
             Template::Mixed => hold.into_iter().chain(clock).collect(),
+            Template::Window => vec![(q * n_obs + y) % n],
         }
     }
 }
@@ -175,6 +182,18 @@ impl Default for ControllerConfig {
 }
 
 impl ControllerConfig {
+    /// The defaults of a search on `kind` values: [`Default`]'s on exact values; on sampled ones
+    /// `N = 1000`, `ρ = 0.05` and the `mixed` template, which solve the memory tasks of
+    /// `docs/memory-benchmark.md` where the exact defaults leave `RepeatFirst` at −0.26 (model §8).
+    pub fn defaults_for(kind: ValueKind) -> ControllerConfig {
+        match kind {
+            ValueKind::Exact => ControllerConfig::default(),
+            ValueKind::Sampled => {
+                ControllerConfig { samples: 1000, rho: 0.05, template: Template::Mixed, ..ControllerConfig::default() }
+            }
+        }
+    }
+
     /// The stopping rules (model §8); the time limit covers every run together.
     pub fn stop_rules(&self) -> crate::ce::stopping::StopRules {
         crate::ce::stopping::StopRules {

@@ -33,11 +33,11 @@ impl Laws {
     pub(super) fn start(n: usize, n_actions: usize, y1: usize, template: Template, weight: f64) -> Laws {
         let mut laws = Laws::uniform(n, n_actions, y1);
         for q in 0..n {
-            let targets = template.successors(q, n);
-            if targets.is_empty() {
-                continue;
-            }
             for y in 0..y1 {
+                let targets = template.successors(q, y, n, y1);
+                if targets.is_empty() {
+                    continue;
+                }
                 let row = &mut laws.next[(q * y1 + y) * n..(q * y1 + y + 1) * n];
                 for p in row.iter_mut() {
                     *p *= 1.0 - weight;
@@ -136,7 +136,12 @@ mod tests {
         assert_eq!(row(&mixed, 1, 0), vec![0.1, 0.4, 0.4, 0.1]);
         assert_eq!(row(&mixed, 0, 0), vec![0.1, 0.7, 0.1, 0.1]);
         assert_eq!(Laws::start(n, a, y, Template::Uniform, 0.6).next, Laws::uniform(n, a, y).next);
-        for laws in [&hold, &clock, &mixed] {
+        // A window: node 3 after observation 2 moves to (3·3 + 2) mod 4 = 3; node 1 after 0 to 3.
+        let window = Laws::start(n, a, y, Template::Window, 0.6);
+        assert_eq!(row(&window, 3, 2), vec![0.1, 0.1, 0.1, 0.7]);
+        assert_eq!(row(&window, 1, 0), vec![0.1, 0.1, 0.1, 0.7]);
+        assert_eq!(row(&window, 0, 1), vec![0.1, 0.7, 0.1, 0.1]);
+        for laws in [&hold, &clock, &mixed, &window] {
             assert!(laws.next.chunks(n).all(|r| (r.iter().sum::<f64>() - 1.0).abs() < 1e-12));
         }
     }
