@@ -190,45 +190,35 @@ def _rival_env(made: Any) -> Any:
         env = gymnasium.make(made)
         n = int(env.observation_space.n)
     else:
-        env, n = _OneEpisode(made), made.n_observations
+        env, n = _one_episode(made), made.n_observations
     eye = np.eye(n, dtype=np.float32)
     return gymnasium.wrappers.TransformObservation(
         env, lambda y: eye[int(y)], gymnasium.spaces.Box(0.0, 1.0, (n,), dtype=np.float32)
     )
 
 
-class _OneEpisode:
+def _one_episode(world: Any) -> Any:
     """A batched world as a Gymnasium environment of one episode at a time."""
+    import gymnasium
 
-    def __init__(self, world: Any) -> None:
-        import gymnasium
+    class OneEpisode(gymnasium.Env):  # type: ignore[misc]
+        def __init__(self) -> None:
+            self.observation_space = gymnasium.spaces.Discrete(world.n_observations)
+            self.action_space = gymnasium.spaces.Discrete(world.n_decisions)
+            self._seed = 0
 
-        self._world = world
-        self.observation_space = gymnasium.spaces.Discrete(world.n_observations)
-        self.action_space = gymnasium.spaces.Discrete(world.n_decisions)
-        self.metadata: dict[str, Any] = {"render_modes": []}
-        self.render_mode = None
-        self.spec = None
-        self.np_random = np.random.default_rng()
-        self._seed = 0
+        def reset(self, *, seed: int | None = None, options: Any = None) -> tuple[int, dict[str, Any]]:
+            self._seed = self._seed + 1 if seed is None else seed
+            self._t = 0
+            return int(np.asarray(world.reset(1, self._seed))[0]), {}
 
-    def reset(self, *, seed: int | None = None, options: Any = None) -> tuple[int, dict[str, Any]]:
-        self._seed = self._seed + 1 if seed is None else seed
-        self._t = 0
-        return int(np.asarray(self._world.reset(1, self._seed))[0]), {}
+        def step(self, action: int) -> tuple[int, float, bool, bool, dict[str, Any]]:
+            self._t += 1
+            ys, rewards, dones = world.step(np.asarray([action], dtype=np.int64))
+            done = bool(dones[0])
+            return int(ys[0]), float(rewards[0]), done, not done and self._t >= world.horizon, {}
 
-    def step(self, action: int) -> tuple[int, float, bool, bool, dict[str, Any]]:
-        self._t += 1
-        ys, rewards, dones = self._world.step(np.asarray([action], dtype=np.int64))
-        done = bool(dones[0])
-        return int(ys[0]), float(rewards[0]), done, not done and self._t >= self._world.horizon, {}
-
-    def close(self) -> None:
-        pass
-
-    @property
-    def unwrapped(self) -> _OneEpisode:
-        return self
+    return OneEpisode()
 
 
 def render(records: list[dict[str, Any]], header: dict[str, Any] | None) -> str:
