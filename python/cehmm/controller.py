@@ -5,7 +5,6 @@ tabular world or from sampled episodes on any (model §8): :func:`optimize_contr
 from __future__ import annotations
 
 import os
-import signal
 from dataclasses import dataclass
 from typing import Any
 
@@ -192,7 +191,7 @@ def optimize_controller(
         19.37
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    with _sigterm_interrupts(checkpoint is not None) as terminated:
+    with _sigterm_interrupts(checkpoint is not None):
         raw = _core.optimize_controller(
             core_world(world, **options),
             nodes=nodes,
@@ -221,10 +220,6 @@ def optimize_controller(
             checkpoint_every=checkpoint_every,
             resume=resume,
         )
-    if terminated:
-        # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        os.kill(os.getpid(), signal.SIGTERM)
     return ControllerResult(
         policy=Policy(raw.policy),
         value=raw.value,

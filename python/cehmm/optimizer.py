@@ -185,7 +185,7 @@ def optimize(
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
     engine_world = core_world(world, **options)
-    with _sigterm_interrupts(checkpoint is not None) as terminated:
+    with _sigterm_interrupts(checkpoint is not None):
         raw = _core.optimize(
             engine_world,
             _initial(engine_world, levels, init, seed)._core,
@@ -207,22 +207,18 @@ def optimize(
             checkpoint_every=checkpoint_every,
             resume=resume,
         )
-    if terminated:
-        # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        os.kill(os.getpid(), signal.SIGTERM)
     return OptimizeResult._from_core(raw)
 
 
 @contextmanager
-def _sigterm_interrupts(checkpointed: bool) -> Iterator[list[bool]]:
+def _sigterm_interrupts(checkpointed: bool) -> Iterator[None]:
     """With a checkpoint, in the main thread, and while SIGTERM has its default action: SIGTERM
-    stops the run like Ctrl-C (the checkpoint is saved) and the list yielded becomes ``[True]``,
-    so that the caller can then end the process as SIGTERM asked."""
+    stops the run like Ctrl-C (the checkpoint is saved), and once the block has returned the
+    process ends as SIGTERM asked, with its exit status. Every optimiser runs inside it."""
     terminated: list[bool] = []
     usable = checkpointed and threading.current_thread() is threading.main_thread()
     if not usable or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        yield terminated
+        yield
         return
 
     def handler(signum: int, frame: object) -> None:
@@ -231,9 +227,12 @@ def _sigterm_interrupts(checkpointed: bool) -> Iterator[list[bool]]:
 
     signal.signal(signal.SIGTERM, handler)
     try:
-        yield terminated
+        yield
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if terminated:
+        # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
+        os.kill(os.getpid(), signal.SIGTERM)
 
 
 def _initial(world: Any, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:

@@ -106,6 +106,8 @@ def _world(task: Task) -> Any:
 def run_cell(name: str, method: str, budget: float, episodes: int, seed: int) -> dict[str, Any] | None:
     """Learns ``name`` with ``method`` for at most ``budget`` seconds and evaluates the result;
     ``None`` where the method does not apply."""
+    if method == "recurrent-ppo":
+        return _recurrent_ppo(name, budget, episodes, seed)
     task = TASKS[name]
     world = _world(task)
     started = time.perf_counter()
@@ -127,8 +129,6 @@ def run_cell(name: str, method: str, budget: float, episodes: int, seed: int) ->
         policy = found.policy
         extra["iterations"] = len(found.history["mean"])
         extra["stop"] = found.stop_reason
-    elif method == "recurrent-ppo":
-        return _recurrent_ppo(name, budget, episodes, seed)
     else:
         raise ValueError(f"invalid method: {method!r} (expected one of {', '.join(METHODS)})")
     seconds = time.perf_counter() - started
