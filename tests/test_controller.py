@@ -35,16 +35,26 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
         "restart",
         "iteration",
         "mean",
-        "elite_min",
-        "max",
         "best",
+        "elite_threshold",
+        "elite_mean",
+        "successful",
+        "best_so_far",
         "concentration",
         "evaluated",
         "injected",
         "seconds",
     }
     assert result.kind == "exact" and result.evaluation is None
-    assert len(h["best"]) == len(h["mean"]) and h["best"][-1] == result.value
+    assert len(h["best_so_far"]) == len(h["mean"]) and h["best_so_far"][-1] == result.value
+    # The fields episode CE's records also have mean the same (an iteration's statistics).
+    assert h["iteration"].dtype == np.int64 and h["successful"].dtype == np.bool_
+    eps = 1e-9  # a mean of equal values may differ from them in the last bit
+    assert np.all(h["mean"] <= h["elite_mean"] + eps) and np.all(h["elite_threshold"] <= h["elite_mean"] + eps)
+    assert np.all(h["elite_mean"] <= h["best"] + eps)
+    # Exact values: the best so far is the running maximum of the iterations' best.
+    assert np.all(h["best_so_far"] >= np.maximum.accumulate(h["best"]) - 1e-9)
+    assert np.all(np.diff(h["best_so_far"]) >= 0)
     assert result.stop_reason == "patience" and not result.interrupted
 
 
@@ -148,7 +158,7 @@ def test_both_protocols_and_every_thread_count_give_the_same_search() -> None:
     reference = results[0]
     for other in results[1:]:
         assert other.value == reference.value and other.run_values == reference.run_values
-        assert np.array_equal(other.history["best"], reference.history["best"])
+        assert np.array_equal(other.history["best_so_far"], reference.history["best_so_far"])
     assert reference.value == 6.0
 
 
@@ -158,7 +168,7 @@ def test_the_engines_worlds_are_searched_on_sampled_values() -> None:
     one = cehmm.optimize_controller(world, threads=1, **settings)
     two = cehmm.optimize_controller(world, threads=2, **settings)
     assert one.kind == "sampled" and one.value == two.value
-    assert np.array_equal(one.history["max"], two.history["max"])
+    assert np.array_equal(one.history["best"], two.history["best"])
     # Case 1 is deterministic: the value is the policy's, and no better than the optimum, 86.
     assert one.value == one.policy.evaluate(world, episodes=10).mean <= 86
     # A tabular world on sampled values: the value of fresh episodes, near its exact value.
@@ -200,7 +210,7 @@ def test_a_search_resumes_from_its_checkpoint(tmp_path: Path) -> None:
     again = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings)
     for result in (first, again):
         assert result.run_values == whole.run_values and result.value == whole.value
-        assert np.array_equal(result.history["best"], whole.history["best"])
+        assert np.array_equal(result.history["best_so_far"], whole.history["best_so_far"])
     with pytest.raises(cehmm.InvalidArgumentError, match="resume"):
         cehmm.optimize_controller(maze, resume=True, **settings)
     with pytest.raises(cehmm.PolicyMismatchError, match="nodes 4, not 5"):

@@ -3,7 +3,7 @@ lower one, and no two files use each other, directly or through others (no impor
 
 Layers, lowest first (a module is placed by the longest prefix of its path listed here):
 
-0. the base: ``error``, ``rng``, ``files``, ``memory``, ``control``
+0. the base: ``error``, ``rng``, ``files``, ``memory``, ``control``, ``settings``
 1. the policy and the file reader: ``policy`` (but ``policy::file``), ``world::cassandra``
 2. the worlds: ``world``
 3. where episodes come from and the policy files that record a world: ``episodes``,
@@ -31,6 +31,7 @@ LAYERS: dict[str, int] = {
     "files": 0,
     "memory": 0,
     "control": 0,
+    "settings": 0,
     "policy": 1,
     "world::cassandra": 1,
     "world": 2,

@@ -74,7 +74,7 @@ def test_keyboard_interrupt_in_a_controller_search_returns_the_best_so_far() -> 
     with alarm(0.3, KeyboardInterrupt):
         result = cehmm.optimize_controller(world, nodes=8, patience=10**6, progress=False)
     assert result.interrupted and result.stop_reason == "interrupted"
-    assert result.value == result.history["best"][-1]
+    assert result.value == result.history["best_so_far"][-1]
     with alarm(0.3, Deadline), pytest.raises(Deadline):
         cehmm.optimize_controller(world, nodes=8, patience=10**6, progress=False)
 

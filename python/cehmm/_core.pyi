@@ -6,6 +6,7 @@ numpy arrays: tables float64, rollouts int64, Q tables float32.
 """
 
 import os
+from collections.abc import Mapping
 from typing import Any, TypedDict, final
 
 import numpy as np
@@ -106,6 +107,13 @@ class HistoryDict(TypedDict):
     elite_mean: npt.NDArray[np.float64]
     seconds: npt.NDArray[np.float64]
     successful: npt.NDArray[np.bool_]
+
+class ControllerHistoryDict(HistoryDict):
+    restart: npt.NDArray[np.int64]
+    best_so_far: npt.NDArray[np.float64]
+    concentration: npt.NDArray[np.float64]
+    evaluated: npt.NDArray[np.int64]
+    injected: npt.NDArray[np.bool_]
 
 @final
 class World:
@@ -287,21 +295,9 @@ class OptimizeOutcome:
 def optimize(
     world: World | OutsideWorld,
     initial: Policy,
+    settings: Mapping[str, object],
     *,
-    samples: int,
-    rho: float,
-    smoothing: float,
-    decision_smoothing: float | None,
-    patience: int,
-    max_iterations: int | None,
-    time_limit: float | None,
-    target: float | None,
-    seed: int,
-    threads: int | None,
-    eval_episodes: int,
     progress: bool,
-    memory_update: str,
-    restarts: int,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,
@@ -320,7 +316,7 @@ class ControllerOutcome:
     @property
     def evaluation(self) -> Evaluation | None: ...
     @property
-    def history(self) -> HistoryDict: ...
+    def history(self) -> ControllerHistoryDict: ...
     @property
     def stop_reason(self) -> str: ...
     @property
@@ -336,29 +332,10 @@ class ControllerOutcome:
 
 def optimize_controller(
     world: World | OutsideWorld,
+    settings: Mapping[str, object],
     *,
-    nodes: int,
-    samples: int | None = None,
-    rho: float | None = None,
-    smoothing: float,
-    patience: int,
-    max_iterations: int | None,
-    time_limit: float | None,
-    tolerance: float,
-    seed: int,
-    threads: int | None,
-    restarts: int,
-    progress: bool,
     value: str | None = None,
-    episodes: int | None = None,
-    candidates: int | None = None,
-    select_episodes: int | None = None,
-    eval_episodes: int | None = None,
-    injection: float | None = None,
-    injections: int | None = None,
-    template: str | None = None,
-    template_weight: float | None = None,
-    target: float | None = None,
+    progress: bool,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,

@@ -34,14 +34,17 @@ class ControllerResult:
         kind: ``"exact"`` or ``"sampled"``.
         evaluation: sampled values: the controller on ``eval_episodes`` fresh episodes (the
             same as ``policy.evaluate(eval_episodes, seed)``); ``None`` on exact values.
-        history: one numpy array per statistic, one entry per iteration of every run in order:
-            ``restart``, ``iteration`` (int64), ``mean``, ``elite_min``, ``max`` (the
-            iteration's values: exact, or means over its ``episodes`` episodes), ``best`` (the
-            best so far: exact, or on the selection episodes), ``concentration`` (mean largest
-            probability of the laws' rows: 1 when every draw is the same controller),
-            ``evaluated`` (controllers evaluated: fewer than ``samples`` when the time limit
-            cut the iteration), ``injected`` (bool: the laws were mixed with the uniform law
-            after this iteration) and ``seconds``.
+        history: one numpy array per statistic, one entry per iteration of every run in order,
+            the fields shared with :class:`OptimizeResult`'s history meaning the same there:
+            ``restart``, ``iteration`` (int64), ``mean``, ``best``, ``elite_threshold`` (the
+            smallest value kept in the elite), ``elite_mean`` (the iteration's values: exact,
+            or means over its ``episodes`` episodes), ``successful`` (bool: a better controller
+            or a higher elite threshold, which resets the patience count), ``best_so_far`` (the
+            best value of the run so far: exact, or on the selection episodes),
+            ``concentration`` (mean largest probability of the laws' rows: 1 when every draw is
+            the same controller), ``evaluated`` (controllers evaluated: fewer than ``samples``
+            when the time limit cut the iteration), ``injected`` (bool: the laws were mixed
+            with the uniform law after this iteration) and ``seconds``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
             ``"time_limit"`` or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
@@ -194,28 +197,29 @@ def optimize_controller(
     with _sigterm_interrupts(checkpoint is not None):
         raw = _core.optimize_controller(
             core_world(world, **options),
-            nodes=nodes,
-            samples=samples,
-            rho=rho,
-            smoothing=smoothing,
-            patience=patience,
-            max_iterations=max_iterations,
-            time_limit=time_limit,
-            tolerance=tolerance,
-            seed=seed,
-            threads=threads,
-            restarts=restarts,
-            progress=progress,
+            dict(
+                nodes=nodes,
+                smoothing=smoothing,
+                patience=patience,
+                max_iterations=max_iterations,
+                time_limit=time_limit,
+                tolerance=tolerance,
+                seed=seed,
+                threads=threads,
+                restarts=restarts,
+                episodes=episodes,
+                candidates=candidates,
+                select_episodes=select_episodes,
+                eval_episodes=eval_episodes,
+                injection=injection,
+                injections=injections,
+                template_weight=template_weight,
+                target=target,
+                # None: the default of the kind of value used.
+                **{k: v for k, v in (("samples", samples), ("rho", rho), ("template", template)) if v is not None},
+            ),
             value=value,
-            episodes=episodes,
-            candidates=candidates,
-            select_episodes=select_episodes,
-            eval_episodes=eval_episodes,
-            injection=injection,
-            injections=injections,
-            template=template,
-            template_weight=template_weight,
-            target=target,
+            progress=progress,
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,

@@ -6,12 +6,14 @@
 //! (0, 1), `samples >= 1`, level sizes) are the core's to check. JSON values (world parameters,
 //! provenance) cross as Python dicts, lists, numbers and strings.
 
+use numpy::PyArray1;
 use pyo3::exceptions::PyOverflowError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde_json::{Map, Number, Value};
 
 use ceworld::Error;
+use ceworld::settings::{Given, Setting, Settings};
 
 use crate::errors::raise;
 
@@ -193,4 +195,85 @@ pub fn shape_text(dims: &[usize]) -> String {
         [one] => format!("({one},)"),
         _ => format!("({})", dims.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")),
     }
+}
+
+/// Records as columns: one numpy array per field the records serialise (`bool` for flags,
+/// `int64` for counts, `float64` for the rest, a number JSON cannot hold as NaN), so that a
+/// record's new field reaches Python without a line here.
+pub fn columns<'py, T: serde::Serialize>(py: Python<'py>, records: &[T]) -> PyResult<Bound<'py, PyDict>> {
+    let rows: Vec<Map<String, Value>> = records
+        .iter()
+        .map(|r| match serde_json::to_value(r) {
+            Ok(Value::Object(map)) => Ok(map),
+            _ => Err(pyo3::exceptions::PyRuntimeError::new_err("a record is not a JSON object")),
+        })
+        .collect::<PyResult<_>>()?;
+    let out = PyDict::new(py);
+    let Some(first) = rows.first() else { return Ok(out) };
+    for (key, sample) in first {
+        let cell = |r: &Map<String, Value>| r.get(key).cloned().unwrap_or(Value::Null);
+        match sample {
+            Value::Bool(_) => {
+                out.set_item(key, PyArray1::from_iter(py, rows.iter().map(|r| cell(r).as_bool() == Some(true))))?;
+            }
+            Value::Number(n) if n.is_u64() || n.is_i64() => {
+                out.set_item(key, PyArray1::from_iter(py, rows.iter().map(|r| cell(r).as_i64().unwrap_or(-1))))?;
+            }
+            _ => {
+                out.set_item(key, PyArray1::from_iter(py, rows.iter().map(|r| cell(r).as_f64().unwrap_or(f64::NAN))))?;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A Python value as a setting's value: bools (numpy's too), ints (numpy's too), floats
+/// (numpy's too), strings, `None`; anything else is [`Given::Other`].
+fn given(value: &Bound<'_, PyAny>) -> Given {
+    if value.is_none() {
+        return Given::Nothing;
+    }
+    if value.is_instance_of::<PyBool>() {
+        return Given::Bool(value.is_truthy().unwrap_or(false));
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return value.extract::<f64>().map_or(Given::Other, Given::Real);
+    }
+    if let Ok(text) = value.cast::<PyString>() {
+        return Given::Text(text.to_string());
+    }
+    match value.extract::<i128>() {
+        Ok(v) => return Given::Int(v),
+        Err(e) if e.is_instance_of::<PyOverflowError>(value.py()) => return Given::Int(i128::MAX),
+        Err(_) => {}
+    }
+    let type_name = value.get_type().name().map(|n| n.to_string()).unwrap_or_default();
+    if type_name == "bool" || type_name == "bool_" {
+        return value.extract::<bool>().map_or(Given::Other, Given::Bool);
+    }
+    value.extract::<f64>().map_or(Given::Other, Given::Real)
+}
+
+/// Sets `config` from keyword settings, naming a bad one.
+pub fn apply_settings<S: Settings>(config: &mut S, settings: &Bound<'_, PyDict>) -> PyResult<()> {
+    for (key, value) in settings.iter() {
+        let name: String = key.extract()?;
+        let setting = Setting { name: &name, value: given(&value), shown: shown(&value) };
+        config.set(&setting).map_err(raise)?;
+    }
+    Ok(())
+}
+
+/// Every optimiser's checkpoint arguments: where, how often (seconds), whether to resume.
+pub fn checkpointing(
+    checkpoint: Option<std::path::PathBuf>,
+    every: Option<&Bound<'_, PyAny>>,
+    resume: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Option<ceworld::Checkpointing>> {
+    let every = optional_real("checkpoint_every", every)?.unwrap_or(ceworld::ce::resume::DEFAULT_EVERY);
+    let resume = resume.map(|r| flag("resume", r)).transpose()?.unwrap_or(false);
+    if checkpoint.is_none() && resume {
+        return Err(raise(Error::invalid("resume", "True without a checkpoint (give checkpoint=PATH)")));
+    }
+    Ok(checkpoint.map(|path| ceworld::Checkpointing { path, every, resume }))
 }

@@ -6,6 +6,8 @@ use ceworld::qlearn::{QConfig, WindowConfig};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::convert::to_py;
+
 /// The exploration rate of Q-learning update `t` (`ceworld::qlearn::epsilon`).
 #[pyfunction]
 fn epsilon(t: &Bound<'_, PyAny>) -> PyResult<f64> {
@@ -17,42 +19,28 @@ fn epsilon(t: &Bound<'_, PyAny>) -> PyResult<f64> {
 pub fn add(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add_function(wrap_pyfunction!(epsilon, m)?)?;
-    let ce = CeConfig::default();
-    let defaults = PyDict::new(py);
-    defaults.set_item("samples", ce.samples)?;
-    defaults.set_item("rho", ce.rho)?;
-    defaults.set_item("smoothing", ce.smoothing)?;
-    defaults.set_item("patience", ce.patience)?;
-    defaults.set_item("seed", ce.seed)?;
-    defaults.set_item("eval_episodes", ce.eval_episodes)?;
-    defaults.set_item("memory_update", ce.memory_update.as_str())?;
-    defaults.set_item("restarts", ce.restarts)?;
+    // Every setting of each config, by name, as it serialises (a new setting needs no line here).
+    let json = |v: serde_json::Result<serde_json::Value>| {
+        v.map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
+    };
+    let defaults = to_py(py, &json(serde_json::to_value(CeConfig::default()))?)?.cast_into::<PyDict>()?;
     defaults.set_item("checkpoint_every", ceworld::ce::resume::DEFAULT_EVERY)?;
     m.add("CE_DEFAULTS", defaults)?;
-    let c = ceworld::ControllerConfig::default();
-    let controller = PyDict::new(py);
-    controller.set_item("nodes", c.nodes)?;
-    controller.set_item("samples", c.samples)?;
-    controller.set_item("rho", c.rho)?;
-    controller.set_item("smoothing", c.smoothing)?;
-    controller.set_item("patience", c.patience)?;
-    controller.set_item("tolerance", c.tolerance)?;
-    controller.set_item("seed", c.seed)?;
-    controller.set_item("restarts", c.restarts)?;
-    controller.set_item("episodes", c.episodes)?;
-    controller.set_item("candidates", c.candidates)?;
-    controller.set_item("select_episodes", c.select_episodes)?;
-    controller.set_item("eval_episodes", c.eval_episodes)?;
-    controller.set_item("injection", c.injection)?;
-    controller.set_item("injections", c.injections)?;
-    controller.set_item("template", c.template.as_str())?;
-    controller.set_item("template_weight", c.template_weight)?;
-    let s = ceworld::ControllerConfig::defaults_for(ceworld::ce::controller::ValueKind::Sampled);
-    let sampled = PyDict::new(py);
-    sampled.set_item("samples", s.samples)?;
-    sampled.set_item("rho", s.rho)?;
-    sampled.set_item("template", s.template.as_str())?;
-    controller.set_item("sampled", sampled)?;
+    let exact = json(serde_json::to_value(ceworld::ControllerConfig::default()))?;
+    let sampled = json(serde_json::to_value(ceworld::ControllerConfig::defaults_for(
+        ceworld::ce::controller::ValueKind::Sampled,
+    )))?;
+    let controller = to_py(py, &exact)?.cast_into::<PyDict>()?;
+    // The settings whose default differs on sampled values.
+    let differ = PyDict::new(py);
+    if let (serde_json::Value::Object(e), serde_json::Value::Object(s)) = (&exact, &sampled) {
+        for (key, value) in s {
+            if e.get(key) != Some(value) {
+                differ.set_item(key, to_py(py, value)?)?;
+            }
+        }
+    }
+    controller.set_item("sampled", differ)?;
     m.add("CONTROLLER_DEFAULTS", controller)?;
     m.add("INIT_CHOICES", ceworld::Init::ALL.map(ceworld::Init::as_str).to_vec())?;
     m.add("MEMORY_UPDATES", ceworld::MemoryUpdate::ALL.map(ceworld::MemoryUpdate::as_str).to_vec())?;

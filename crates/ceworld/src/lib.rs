@@ -26,6 +26,7 @@ pub mod policy;
 pub mod progress;
 pub mod qlearn;
 pub mod rng;
+pub mod settings;
 pub mod world;
 
 pub use ce::checkpoint::CeCheckpoint;

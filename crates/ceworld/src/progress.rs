@@ -6,6 +6,7 @@
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
+use crate::ce::controller::ControllerIteration;
 use crate::ce::record::IterationRecord;
 
 /// Seconds between two plain lines when stderr is not a terminal.
@@ -70,48 +71,75 @@ impl LiveLine {
     }
 }
 
-/// The progress of a CE optimisation: iteration, mean, elite threshold, best mean so far and
-/// the iterations without gain against the patience.
-pub struct CeProgress {
+/// What the progress line shows of one iteration, for every optimiser: its record, the score
+/// its result is chosen by, and what else it shows.
+pub trait Step {
+    /// The iteration's statistics (`iteration` is 0 again at each restart).
+    fn record(&self) -> &IterationRecord;
+    /// The score the result is chosen by, as of this iteration (its maximum over the run so
+    /// far is the line's "best").
+    fn score(&self) -> f64;
+    /// What `score` is, in a few words ("best mean", "best value").
+    fn score_name(&self) -> &'static str;
+    /// What else this optimiser shows, at the end of the line (empty: nothing).
+    fn detail(&self) -> String {
+        String::new()
+    }
+}
+
+/// The progress of an optimisation: iteration, mean, elite threshold, the best score so far
+/// and its iteration, the iterations without gain against the patience, the seconds; a line of
+/// its own at each restart.
+pub struct Progress {
     line: LiveLine,
     patience: usize,
+    restarts: usize,
+    runs: usize,
     best: (f64, usize),
     since: usize,
 }
 
-impl CeProgress {
-    /// Progress of a run with `patience` on `line`.
-    pub fn new(patience: usize, line: LiveLine) -> CeProgress {
-        CeProgress { line, patience, best: (f64::NEG_INFINITY, 0), since: 0 }
+impl Progress {
+    /// Progress of a run with `patience` and `restarts` runs on `line`.
+    pub fn new(patience: usize, restarts: usize, line: LiveLine) -> Progress {
+        Progress { line, patience, restarts, runs: 0, best: (f64::NEG_INFINITY, 0), since: 0 }
     }
 
-    /// Takes one iteration's record (a new restart starts the counts afresh).
-    pub fn update(&mut self, r: &IterationRecord) {
+    /// Takes one iteration's record (a new run starts the counts afresh).
+    pub fn update(&mut self, step: &impl Step) {
+        let r = step.record();
         if r.iteration == 0 {
+            self.runs += 1;
+            if self.runs > 1 {
+                self.line.note(&format!("restart {} of {}", self.runs, self.restarts));
+            }
             self.best = (f64::NEG_INFINITY, 0);
             self.since = 0;
         }
-        if r.successful {
-            self.best = (r.mean, r.iteration);
-            self.since = 0;
-        } else {
-            self.since += 1;
+        if step.score() > self.best.0 {
+            self.best = (step.score(), r.iteration);
         }
-        let text = self.text(r);
+        self.since = if r.successful { 0 } else { self.since + 1 };
+        let text = self.text(step);
         self.line.update(text);
     }
 
     /// The line for `r` given the best iteration so far.
-    pub fn text(&self, r: &IterationRecord) -> String {
+    pub fn text(&self, step: &impl Step) -> String {
+        let (r, detail) = (step.record(), step.detail());
         format!(
-            "iter {:>5}  mean {:>7.2}  elite>= {:>6.1}  best mean {:>7.2} (iter {})  no gain {:>3}/{}  {:>6.1}s",
-            r.iteration, r.mean, r.elite_threshold, self.best.0, self.best.1, self.since, self.patience, r.seconds
+            "iter {:>5}  mean {:>9.3}  elite>= {:>9.3}  {} {:>9.3} (iter {})  no gain {:>3}/{}  {:>6.1}s{}{detail}",
+            r.iteration,
+            r.mean,
+            r.elite_threshold,
+            step.score_name(),
+            self.best.0,
+            self.best.1,
+            self.since,
+            self.patience,
+            r.seconds,
+            if detail.is_empty() { "" } else { "  " },
         )
-    }
-
-    /// A line of its own (e.g. "restart 2 of 3").
-    pub fn note(&mut self, text: &str) {
-        self.line.note(text);
     }
 
     /// Writes the last iteration's line and ends it.
@@ -120,9 +148,38 @@ impl CeProgress {
     }
 }
 
+impl Step for IterationRecord {
+    fn record(&self) -> &IterationRecord {
+        self
+    }
+    fn score(&self) -> f64 {
+        self.mean
+    }
+    fn score_name(&self) -> &'static str {
+        "best mean"
+    }
+}
+
+impl Step for ControllerIteration {
+    fn record(&self) -> &IterationRecord {
+        &self.record
+    }
+    fn score(&self) -> f64 {
+        self.best_so_far
+    }
+    fn score_name(&self) -> &'static str {
+        "best value"
+    }
+    fn detail(&self) -> String {
+        let escape = if self.injected { "  escape" } else { "" };
+        format!("concentration {:.3}{escape}", self.concentration)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ce::record::IterationRecord;
 
     fn record(iteration: usize, mean: f64, successful: bool) -> IterationRecord {
         IterationRecord {
@@ -138,21 +195,22 @@ mod tests {
 
     #[test]
     fn the_line_names_the_best_iteration_and_the_iterations_without_gain() {
-        let mut p = CeProgress::new(100, LiveLine::new(false));
+        let mut p = Progress::new(100, 1, LiveLine::new(false));
         p.update(&record(0, 1.0, true));
         p.update(&record(1, 3.0, true));
         p.update(&record(2, 2.0, false));
         let text = p.text(&record(3, 2.5, false));
-        assert!(text.contains("best mean    3.00 (iter 1)") && text.contains("no gain   1/100"), "{text}");
+        assert!(text.contains("best mean     3.000 (iter 1)") && text.contains("no gain   1/100"), "{text}");
         assert!(!text.contains('\r') && !text.contains('\x1b'));
     }
 
     #[test]
     fn a_restart_starts_the_counts_afresh() {
-        let mut p = CeProgress::new(10, LiveLine::new(false));
+        let mut p = Progress::new(10, 2, LiveLine::new(false));
         p.update(&record(0, 5.0, true));
         p.update(&record(1, 4.0, false));
         p.update(&record(0, 1.0, true));
-        assert!(p.text(&record(1, 0.5, false)).contains("best mean    1.00 (iter 0)"));
+        assert_eq!(p.runs, 2);
+        assert!(p.text(&record(1, 0.5, false)).contains("best mean     1.000 (iter 0)"));
     }
 }

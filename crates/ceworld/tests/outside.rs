@@ -359,8 +359,8 @@ fn controllers_are_valued_and_searched_as_the_engine_would_whatever_the_batch_an
         assert_eq!(values, engine, "batch {batch}");
         let found = optimize_controller(Valued::Sampled(&outside), &search(threads), |_| Flow::Continue).unwrap();
         assert_eq!(
-            (&found.policy, found.value, &found.history.iter().map(|r| r.best).collect::<Vec<_>>()),
-            (&reference.policy, reference.value, &reference.history.iter().map(|r| r.best).collect::<Vec<_>>()),
+            (&found.policy, found.value, &found.history.iter().map(|r| r.best_so_far).collect::<Vec<_>>()),
+            (&reference.policy, reference.value, &reference.history.iter().map(|r| r.best_so_far).collect::<Vec<_>>()),
             "batch {batch}, threads {threads}"
         );
     }

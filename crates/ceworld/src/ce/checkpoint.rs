@@ -46,38 +46,14 @@ pub type CeCheckpoint = Checkpoint<CeRun>;
 
 impl Resumable for CeRun {
     const FORMAT: &'static str = FORMAT;
+    const VERSION: u64 = 1;
     type Config = CeConfig;
     type Run = RunState;
     type Finished = FinishedRun;
 
-    fn shaping(c: &CeConfig) -> Vec<(&'static str, String)> {
-        vec![
-            ("samples", c.samples.to_string()),
-            ("rho", c.rho.to_string()),
-            ("smoothing", c.smoothing.to_string()),
-            ("decision_smoothing", format!("{:?}", c.decision_smoothing)),
-            ("seed", c.seed.to_string()),
-            ("memory_update", c.memory_update.as_str().into()),
-            ("restarts", c.restarts.to_string()),
-            ("eval_episodes", c.eval_episodes.to_string()),
-        ]
-    }
-
     fn non_finite(run: Option<&RunState>, finished: &[FinishedRun]) -> Option<String> {
         let records = run.iter().flat_map(|r| &r.history).chain(finished.iter().flat_map(|f| &f.result.history));
-        for r in records {
-            for (name, v) in [
-                ("mean", r.mean),
-                ("best", r.best),
-                ("elite_threshold", r.elite_threshold),
-                ("elite_mean", r.elite_mean),
-            ] {
-                if !v.is_finite() {
-                    return Some(format!("iteration {}'s {name} ({v})", r.iteration));
-                }
-            }
-        }
-        None
+        records.into_iter().find_map(|r| r.non_finite().map(|what| format!("iteration {}'s {what}", r.iteration)))
     }
 }
 

@@ -5,42 +5,85 @@ use serde::{Deserialize, Serialize};
 use crate::control::check_threads;
 use crate::error::{Error, Result};
 use crate::evaluate::MAX_EPISODES;
+use crate::settings::{Setting, Settings};
 
 /// The settings of one optimisation; `Default` gives the paper's (N = 1000, ρ = 0.5, α = 1,
-/// weak criterion).
+/// weak criterion). The one home of each setting: its doc is the CLI's help (`ceworld optimize
+/// --help`), its name the Python keyword ([`Settings::set`]) and the checkpoint's and policy
+/// file's key.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct CeConfig {
-    /// Episodes drawn per iteration, `N`.
+    /// Episodes drawn per iteration, N.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().samples))]
     pub samples: usize,
-    /// Selective rate ρ in (0, 1): the best `ceil(ρN)` episodes are kept.
+    /// Selective rate rho in (0, 1): the best ceil(rho*N) episodes refit the tables.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().rho))]
     pub rho: f64,
-    /// Smoothing α in (0, 1]: `h := α·new + (1 − α)·h`; 1 is the paper's basic CE.
+    /// Smoothing alpha in (0, 1]: h := alpha*new + (1 - alpha)*h; 1 is the paper's basic CE.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().smoothing))]
     pub smoothing: f64,
-    /// The smoothing of the decision table `h0` alone, in (0, 1] (`None`: `smoothing`). A
+    /// The smoothing of the decision table h0 alone, in (0, 1] (default: the smoothing). A
     /// smaller value lets the memory tables take shape before the decisions settle: on tabular
     /// worlds whose optimum needs memory, the decisions otherwise lock onto the best memoryless
     /// policy within a few iterations (model §3).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub decision_smoothing: Option<f64>,
-    /// Stop after this many consecutive unsuccessful iterations (weak 100, strong 500).
+    /// Stop after this many consecutive unsuccessful iterations (the paper's weak criterion is
+    /// 100, its strong criterion 500).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().patience))]
     pub patience: usize,
     /// Stop after this many iterations.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub max_iterations: Option<usize>,
     /// Stop after this many seconds (checked between iterations).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub time_limit: Option<f64>,
     /// Stop as soon as an iteration's mean reward reaches this value.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub target: Option<f64>,
-    /// Seed of every random stream.
+    /// Seed of every random stream: the same seed and settings give the same policy, whatever
+    /// the thread count.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().seed))]
     pub seed: u64,
-    /// Worker threads (`None`: one per core). Results do not depend on it.
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub threads: Option<usize>,
     /// Fresh episodes used to evaluate the returned policy.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().eval_episodes))]
     pub eval_episodes: usize,
-    /// How the elite's memory is counted: as sampled (the paper) or re-inferred.
+    /// How the elite's memory is counted: "sampled" (the paper: the memory states that were
+    /// drawn) or "forward-backward" (their posterior expectation given the episode's
+    /// observations and decisions; at most 2 levels).
+    #[cfg_attr(feature = "cli", arg(long, default_value = MemoryUpdate::Sampled.as_str(), value_name = "sampled|forward-backward"))]
     pub memory_update: MemoryUpdate,
-    /// Independent runs (the first with `seed`, the others with seeds derived from it); the one
-    /// whose policy scores best on `eval_episodes` selection episodes is returned, evaluated on
-    /// other, fresh episodes. The time limit is shared by all the runs.
+    /// Independent runs (the first with the seed, the others with seeds derived from it); the
+    /// one whose policy scores best on eval-episodes selection episodes is returned, evaluated
+    /// on other, fresh episodes. The time limit is shared by all the runs.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = CeConfig::default().restarts))]
     pub restarts: usize,
+}
+
+impl Settings for CeConfig {
+    fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "samples" => self.samples = s.count()?,
+            "rho" => self.rho = s.real()?,
+            "smoothing" => self.smoothing = s.real()?,
+            "decision_smoothing" => self.decision_smoothing = s.optional_real()?,
+            "patience" => self.patience = s.count()?,
+            "max_iterations" => self.max_iterations = s.optional_count()?,
+            "time_limit" => self.time_limit = s.optional_real()?,
+            "target" => self.target = s.optional_real()?,
+            "seed" => self.seed = s.seed()?,
+            "threads" => self.threads = s.optional_count()?,
+            "eval_episodes" => self.eval_episodes = s.count()?,
+            "memory_update" => self.memory_update = s.choice(str::parse)?,
+            "restarts" => self.restarts = s.count()?,
+            other => return Err(self.unknown(other)),
+        }
+        Ok(())
+    }
 }
 
 /// How the CE update counts the memory of the elite episodes.

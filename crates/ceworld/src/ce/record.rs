@@ -10,6 +10,7 @@ use crate::episodes::Episodes;
 use crate::evaluate::Evaluation;
 use crate::policy::Hhmm;
 use crate::policy::file::PolicyFile;
+use crate::settings::Settings;
 
 /// One iteration's statistics.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -28,6 +29,21 @@ pub struct IterationRecord {
     pub seconds: f64,
     /// Whether the mean beat every earlier iteration's.
     pub successful: bool,
+}
+
+impl IterationRecord {
+    /// The first statistic that is not a finite number, as `name (value)`, if any.
+    pub fn non_finite(&self) -> Option<String> {
+        [
+            ("mean", self.mean),
+            ("best", self.best),
+            ("elite_threshold", self.elite_threshold),
+            ("elite_mean", self.elite_mean),
+        ]
+        .into_iter()
+        .find(|(_, v)| !v.is_finite())
+        .map(|(name, v)| format!("{name} ({v})"))
+    }
 }
 
 /// The outcome of an optimisation.
@@ -68,30 +84,27 @@ impl CeResult {
     pub fn to_file<E: Episodes + ?Sized>(&self, world: &E, config: &CeConfig) -> PolicyFile {
         let result = self;
         let best = &result.history[result.best_iteration];
-        let mut provenance = json!({
-                "seed": config.seed,
-                "samples": config.samples,
-                "rho": config.rho,
-                "alpha": config.smoothing,
-                "patience": config.patience,
-                "restarts": config.restarts,
-                "restart": result.restart,
-                "iterations": result.history.len(),
-                "best_iteration": result.best_iteration,
-                "best_iteration_mean": best.mean,
-                "mean_reward": result.evaluation.mean,
-                "evaluation_episodes": result.evaluation.episodes,
-                "evaluation_std_error": result.evaluation.std_error,
-                "stop": result.stop.as_str(),
-                "interrupted": result.interrupted(),
-                "version": crate::VERSION,
-        });
-        if let Some(d) = config.decision_smoothing {
-            provenance["decision_smoothing"] = json!(d);
+        let mut provenance = config.provenance();
+        // SPEC §6 names the smoothing `alpha`.
+        provenance.insert("alpha".into(), json!(config.smoothing));
+        for (key, value) in [
+            ("restart", json!(result.restart)),
+            ("iterations", json!(result.history.len())),
+            ("best_iteration", json!(result.best_iteration)),
+            ("best_iteration_mean", json!(best.mean)),
+            ("mean_reward", json!(result.evaluation.mean)),
+            ("evaluation_episodes", json!(result.evaluation.episodes)),
+            ("evaluation_std_error", json!(result.evaluation.std_error)),
+            ("stop", json!(result.stop.as_str())),
+            ("interrupted", json!(result.interrupted())),
+            ("version", json!(crate::VERSION)),
+        ] {
+            provenance.insert(key.into(), value);
         }
         if !result.restart_scores.is_empty() {
-            provenance["restart_scores"] = json!(result.restart_scores);
+            provenance.insert("restart_scores".into(), json!(result.restart_scores));
         }
+        let provenance = serde_json::Value::Object(provenance);
         PolicyFile { policy: result.policy.clone(), world: world.description(), provenance }
     }
 

@@ -20,8 +20,9 @@ use serde_json::Value;
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
 
-/// The version of the format written.
-pub const VERSION: u64 = 1;
+/// The settings a resumed run may change: its stopping rules, its time limit and its thread
+/// count (none of them changes what an iteration does).
+pub const FREE_SETTINGS: [&str; 5] = ["patience", "max_iterations", "time_limit", "target", "threads"];
 /// Largest checkpoint file read (bytes); a larger file is refused before it is read.
 pub const MAX_CHECKPOINT_BYTES: u64 = 1 << 34;
 /// Seconds between two checkpoints when none is given.
@@ -55,15 +56,27 @@ impl Checkpointing {
 pub trait Resumable {
     /// The `"format"` of its checkpoint files.
     const FORMAT: &'static str;
+    /// The version of that format written (and the only one read).
+    const VERSION: u64;
     /// Its settings.
     type Config: Clone + Serialize + DeserializeOwned;
     /// The state of a run between two iterations.
     type Run: Clone + Serialize + DeserializeOwned;
     /// A run that is over.
     type Finished: Clone + Serialize + DeserializeOwned;
-    /// The settings that shape a run, by name, as text (the stopping rules, the time limit and
-    /// the thread count may change between sessions).
-    fn shaping(config: &Self::Config) -> Vec<(&'static str, String)>;
+    /// The settings that shape a run, by name, as text: every setting the config serialises
+    /// but those that may change between sessions ([`FREE_SETTINGS`]).
+    fn shaping(config: &Self::Config) -> Vec<(String, String)> {
+        let value = serde_json::to_value(config).unwrap_or(Value::Null);
+        let Value::Object(map) = value else { return Vec::new() };
+        map.into_iter()
+            .filter(|(k, _)| !FREE_SETTINGS.contains(&k.as_str()))
+            .map(|(k, v)| {
+                let text = if let Value::String(s) = &v { s.clone() } else { v.to_string() };
+                (k, text)
+            })
+            .collect()
+    }
     /// The first number of the state that JSON cannot hold exactly, if any.
     fn non_finite(run: Option<&Self::Run>, finished: &[Self::Finished]) -> Option<String>;
 }
@@ -74,7 +87,7 @@ pub trait Resumable {
 pub struct Checkpoint<K: Resumable> {
     /// [`Resumable::FORMAT`].
     pub format: String,
-    /// [`VERSION`].
+    /// [`Resumable::VERSION`].
     pub version: u64,
     /// The world's JSON (model §6).
     pub world: Value,
@@ -97,7 +110,7 @@ impl<K: Resumable> Checkpoint<K> {
     pub fn fresh(world: Value, config: &K::Config) -> Checkpoint<K> {
         Checkpoint {
             format: K::FORMAT.into(),
-            version: VERSION,
+            version: K::VERSION,
             world,
             config: config.clone(),
             restart: 0,
@@ -127,8 +140,8 @@ impl<K: Resumable> Checkpoint<K> {
             _ => return Err(bad(format!("not a checkpoint (expected \"format\": \"{}\")", K::FORMAT))),
         }
         match doc.get("version").and_then(Value::as_u64) {
-            Some(VERSION) => {}
-            other => return Err(bad(format!("checkpoint version {other:?} (expected {VERSION})"))),
+            Some(v) if v == K::VERSION => {}
+            other => return Err(bad(format!("checkpoint version {other:?} (expected {})", K::VERSION))),
         }
         serde_json::from_value(doc).map_err(|e| bad(format!("invalid checkpoint: {e}")))
     }
@@ -145,7 +158,7 @@ impl<K: Resumable> Checkpoint<K> {
         }
         for ((name, saved), (_, given)) in K::shaping(&self.config).into_iter().zip(K::shaping(config)) {
             if saved != given {
-                return mismatch(name, saved, given);
+                return mismatch(&name, saved, given);
             }
         }
         Ok(())

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use ceworld::progress::{CeProgress, LiveLine};
+use ceworld::progress::{LiveLine, Progress};
 use clap::{Parser, Subcommand};
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
@@ -136,54 +136,12 @@ struct OptimizeArgs {
     /// it once; a policy given by --init brings its own).
     #[arg(long, default_values_t = ceworld::DEFAULT_LEVELS, value_delimiter = ',', action = clap::ArgAction::Set)]
     levels: Vec<usize>,
-    /// Episodes per iteration (N).
-    #[arg(long, default_value_t = CeConfig::default().samples)]
-    samples: usize,
-    /// Selective rate: the best ceil(rho*N) episodes refit the tables; 0 < rho < 1.
-    #[arg(long, default_value_t = CeConfig::default().rho)]
-    rho: f64,
-    /// Smoothing alpha in (0, 1]: h := alpha*new + (1-alpha)*h (1 = the paper's basic CE).
-    #[arg(long, default_value_t = CeConfig::default().smoothing)]
-    smoothing: f64,
-    /// The smoothing of the decision table h0 alone (default: --smoothing); smaller lets the
-    /// memory take shape before the decisions settle (e.g. 0.02 with --smoothing 0.2).
-    #[arg(long)]
-    decision_smoothing: Option<f64>,
-    /// Stop after this many unsuccessful iterations in a row (the paper's weak criterion is
-    /// 100, its strong criterion 500).
-    #[arg(long, default_value_t = CeConfig::default().patience)]
-    patience: usize,
-    /// Stop after this many iterations.
-    #[arg(long)]
-    max_iterations: Option<usize>,
-    /// Stop after this many seconds (checked between iterations).
-    #[arg(long)]
-    time_limit: Option<f64>,
-    /// Stop once an iteration's mean reward reaches this value.
-    #[arg(long)]
-    target: Option<f64>,
-    /// Seed: the same seed and settings give the same policy, whatever the thread count.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads (default: one per core).
-    #[arg(long)]
-    threads: Option<usize>,
-    /// Fresh episodes used to evaluate the result.
-    #[arg(long, default_value_t = CeConfig::default().eval_episodes)]
-    eval_episodes: usize,
-    /// How the elite's memory is counted: "sampled" (the paper: the memory states that were
-    /// drawn) or "forward-backward" (their posterior expectation given the episode's
-    /// observations and decisions; at most 2 levels).
-    #[arg(long, default_value = ceworld::MemoryUpdate::Sampled.as_str(), value_name = "sampled|forward-backward")]
-    memory_update: ceworld::MemoryUpdate,
+    #[command(flatten)]
+    config: CeConfig,
     /// Start from a clock: the memory counts the steps and h0 becomes a time-indexed plan
     /// (needs two equal levels, e.g. --levels 100,100).
     #[arg(long, conflicts_with_all = ["random_init", "init"])]
     clock_init: bool,
-    /// Independent runs; the best, chosen on separate episodes, is kept (the first run uses
-    /// --seed, the others seeds derived from it).
-    #[arg(long, default_value_t = CeConfig::default().restarts)]
-    restarts: usize,
     /// Start from random tables (drawn from the seed) instead of uniform ones.
     #[arg(long)]
     random_init: bool,
@@ -279,21 +237,7 @@ fn run_optimize(args: &OptimizeArgs) -> Result<()> {
 
 /// `optimize` in one world of the registry.
 fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
-    let config = CeConfig {
-        samples: args.samples,
-        rho: args.rho,
-        smoothing: args.smoothing,
-        decision_smoothing: args.decision_smoothing,
-        patience: args.patience,
-        max_iterations: args.max_iterations,
-        time_limit: args.time_limit,
-        target: args.target,
-        seed: args.seed,
-        threads: args.threads,
-        eval_episodes: args.eval_episodes,
-        memory_update: args.memory_update,
-        restarts: args.restarts,
-    };
+    let config = args.config.clone();
     config.validate()?;
     let initial = if let Some(path) = &args.init {
         PolicyFile::load(path)?.policy
@@ -303,7 +247,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
             (_, true) => Init::Clock,
             _ => Init::Uniform,
         };
-        init.policy(world, &args.levels, args.seed)?
+        init.policy(world, &args.levels, config.seed)?
     };
     stop::install();
     if !args.quiet {
@@ -319,17 +263,10 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
             config.seed
         );
     }
-    let mut progress = (!args.quiet).then(|| CeProgress::new(config.patience, LiveLine::stderr()));
-    let mut runs = 0;
+    let mut progress = (!args.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
     let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
     let result = optimize_with(world, initial, &config, checkpointing.as_ref(), |r| {
         if let Some(progress) = &mut progress {
-            if r.iteration == 0 {
-                runs += 1;
-                if runs > 1 {
-                    progress.note(&format!("restart {} of {}", runs, config.restarts));
-                }
-            }
             progress.update(r);
         }
         if stop::requested() { Flow::Stop } else { Flow::Continue }

@@ -51,6 +51,7 @@ pub struct FinishedSearch {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SearchSettings {
     /// The settings.
+    #[serde(flatten)]
     pub config: ControllerConfig,
     /// Exact or sampled values.
     pub value: ValueKind,
@@ -64,42 +65,22 @@ pub struct ControllerSearch;
 pub type ControllerCheckpoint = Checkpoint<ControllerSearch>;
 
 impl Resumable for ControllerSearch {
+    /// 2: the records' fields renamed as episode CE's (`best`, `elite_threshold`), the
+    /// settings flattened.
+    const VERSION: u64 = 2;
     const FORMAT: &'static str = FORMAT;
     type Config = SearchSettings;
     type Run = SearchState;
     type Finished = FinishedSearch;
 
-    fn shaping(settings: &SearchSettings) -> Vec<(&'static str, String)> {
-        let c = &settings.config;
-        vec![
-            ("value", settings.value.as_str().into()),
-            ("nodes", c.nodes.to_string()),
-            ("samples", c.samples.to_string()),
-            ("rho", c.rho.to_string()),
-            ("smoothing", c.smoothing.to_string()),
-            ("tolerance", c.tolerance.to_string()),
-            ("seed", c.seed.to_string()),
-            ("restarts", c.restarts.to_string()),
-            ("episodes", c.episodes.to_string()),
-            ("candidates", c.candidates.to_string()),
-            ("select_episodes", c.select_episodes.to_string()),
-            ("eval_episodes", c.eval_episodes.to_string()),
-            ("injection", c.injection.to_string()),
-            ("injections", c.injections.to_string()),
-            ("template", c.template.as_str().into()),
-            ("template_weight", c.template_weight.to_string()),
-        ]
-    }
-
     fn non_finite(run: Option<&SearchState>, finished: &[FinishedSearch]) -> Option<String> {
         let records = run.iter().flat_map(|r| &r.history).chain(finished.iter().flat_map(|f| &f.history));
-        for r in records {
-            for (name, v) in [("mean", r.mean), ("elite_min", r.elite_min), ("max", r.max), ("best", r.best)] {
-                if !v.is_finite() {
-                    return Some(format!("run {} iteration {}'s {name} ({v})", r.restart, r.iteration));
-                }
-            }
-        }
-        None
+        records.into_iter().find_map(|r| {
+            let best = (!r.best_so_far.is_finite()).then(|| format!("best_so_far ({})", r.best_so_far));
+            r.record
+                .non_finite()
+                .or(best)
+                .map(|what| format!("run {} iteration {}'s {what}", r.restart, r.record.iteration))
+        })
     }
 }

@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
+use crate::settings::{Setting, Settings};
 
 /// Most controllers of one iteration.
 pub const MAX_SAMPLES: usize = 10_000_000;
@@ -99,59 +100,114 @@ impl Template {
 }
 
 /// The settings of a controller search; `Default` gives settings that suit the small files of
-/// `data/pomdp/` (model §8).
+/// `data/pomdp/` (model §8), [`ControllerConfig::defaults_for`] those of each kind of value. The
+/// one home of each setting: its doc is the CLI's help (`ceworld controller --help`), its name
+/// the Python keyword ([`Settings::set`]) and the checkpoint's and policy file's key. The
+/// settings whose default depends on the kind of value (`samples`, `rho`, `template`) are the
+/// CLI's own options.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ControllerConfig {
-    /// Nodes of the controller, `n`.
+    /// Nodes of the controller, n.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().nodes))]
     pub nodes: usize,
-    /// Controllers drawn per iteration, `N`.
+    /// Controllers drawn per iteration, N.
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().samples))]
     pub samples: usize,
     /// Selective rate ρ in (0, 1): the best `ceil(ρN)` controllers refit the laws.
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().rho))]
     pub rho: f64,
-    /// Smoothing α in (0, 1]: `p := α·elite frequency + (1 − α)·p`.
+    /// Smoothing alpha in (0, 1]: p := alpha*(elite frequency) + (1 - alpha)*p.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().smoothing))]
     pub smoothing: f64,
     /// Stop after this many iterations in a row without progress: neither a better controller
     /// nor a higher elite threshold.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().patience))]
     pub patience: usize,
     /// Stop after this many iterations.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub max_iterations: Option<usize>,
     /// Stop once the best value so far reaches this.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub target: Option<f64>,
     /// Stop after this many seconds (checked before each controller's evaluation on exact
     /// values, before each iteration on sampled ones: an iteration cut by it does not refit the
     /// laws).
+    #[cfg_attr(feature = "cli", arg(long))]
     pub time_limit: Option<f64>,
-    /// Absolute tolerance of each controller's infinite-horizon value (`γ < 1`), and the least
-    /// gain that counts as progress.
+    /// Absolute tolerance of each controller's infinite-horizon value (discount below 1), and
+    /// the least gain that counts as progress.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().tolerance))]
     pub tolerance: f64,
-    /// Seed of every random stream.
+    /// Seed of every random stream: the same seed and settings give the same controller,
+    /// whatever the thread count.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().seed))]
     pub seed: u64,
-    /// Worker threads (`None`: one per core). Results do not depend on it.
+    /// Worker threads (default: one per core). Results do not depend on it.
+    #[cfg_attr(feature = "cli", arg(long))]
     pub threads: Option<usize>,
-    /// Independent runs (the first with `seed`, the others with seeds derived from it); the best
-    /// controller of all is returned. The time limit is shared by all the runs.
+    /// Independent runs (the first with the seed, the others with seeds derived from it); the
+    /// best controller of all is returned. The time limit is shared by all the runs.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().restarts))]
     pub restarts: usize,
-    /// Sampled values: episodes per controller and iteration, `K`, the same `K` world streams for
+    /// Sampled values: episodes per controller and iteration, K, the same K world streams for
     /// every controller of an iteration (new ones each iteration).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().episodes))]
     pub episodes: usize,
-    /// Sampled values: the iteration's best `candidates` controllers (by their `K`-episode
-    /// value) are scored again on `select_episodes` fixed selection episodes, and the best so
-    /// far is the best on those (so that a lucky `K`-episode value cannot be kept).
+    /// Sampled values: the iteration's best `candidates` controllers (by their K-episode
+    /// value) are scored again on the selection episodes, and the best so far is the best on
+    /// those (so that a lucky K-episode value cannot be kept).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().candidates))]
     pub candidates: usize,
     /// Sampled values: the selection episodes (the same for every iteration and run).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().select_episodes))]
     pub select_episodes: usize,
     /// Sampled values: fresh episodes that give the value reported for the controller returned
     /// (episodes it was not chosen on).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().eval_episodes))]
     pub eval_episodes: usize,
     /// Escapes from a converged run: when patience runs out, mix this weight of the uniform law
     /// into every law and go on, at most `injections` times (Omidshafiei et al. 2017).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().injection))]
     pub injection: f64,
     /// The most entropy injections of one run (0: a run stops when patience runs out).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().injections))]
     pub injections: usize,
     /// The memory the laws start from.
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().template))]
     pub template: Template,
     /// The weight of the template in the first successor laws, in [0, 1).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().template_weight))]
     pub template_weight: f64,
+}
+
+impl Settings for ControllerConfig {
+    fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "nodes" => self.nodes = s.count()?,
+            "samples" => self.samples = s.count()?,
+            "rho" => self.rho = s.real()?,
+            "smoothing" => self.smoothing = s.real()?,
+            "patience" => self.patience = s.count()?,
+            "max_iterations" => self.max_iterations = s.optional_count()?,
+            "target" => self.target = s.optional_real()?,
+            "time_limit" => self.time_limit = s.optional_real()?,
+            "tolerance" => self.tolerance = s.real()?,
+            "seed" => self.seed = s.seed()?,
+            "threads" => self.threads = s.optional_count()?,
+            "restarts" => self.restarts = s.count()?,
+            "episodes" => self.episodes = s.count()?,
+            "candidates" => self.candidates = s.count()?,
+            "select_episodes" => self.select_episodes = s.count()?,
+            "eval_episodes" => self.eval_episodes = s.count()?,
+            "injection" => self.injection = s.real()?,
+            "injections" => self.injections = s.count()?,
+            "template" => self.template = s.choice(Template::parse)?,
+            "template_weight" => self.template_weight = s.real()?,
+            other => return Err(self.unknown(other)),
+        }
+        Ok(())
+    }
 }
 
 impl Default for ControllerConfig {

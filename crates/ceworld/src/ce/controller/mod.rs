@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::json;
 
+use crate::ce::record::IterationRecord;
 use crate::ce::stopping::StopReason;
 use crate::control::{Flow, thread_pool};
 use crate::episodes::{Episodes, Streams};
@@ -28,6 +29,7 @@ pub use crate::policy::controller::Controller;
 use crate::policy::file::PolicyFile;
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream};
+use crate::settings::Settings;
 
 pub use config::{ControllerConfig, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
 use laws::Laws;
@@ -36,29 +38,27 @@ pub use value::{ControllerValue, Valued};
 use crate::ce::resume::{Checkpointing, Saver};
 use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
 
-/// One iteration of a controller search.
+/// One iteration of a controller search: the statistics every optimiser records
+/// ([`IterationRecord`], with a controller's value in place of an episode's reward) and the
+/// search's own.
 #[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct ControllerIteration {
     /// The run (0-based; see `restarts`).
     pub restart: usize,
-    /// 0-based, within the run.
-    pub iteration: usize,
-    /// Mean value of the iteration's controllers (exact, or over their `K` episodes).
-    pub mean: f64,
-    /// The worst value kept in the elite.
-    pub elite_min: f64,
-    /// The iteration's best value.
-    pub max: f64,
-    /// The best value so far: exact, or on the selection episodes.
-    pub best: f64,
+    /// The iteration's statistics: `iteration` within the run, the `mean`, `best`, elite
+    /// threshold and elite mean of its controllers' values (exact, or over their `K` episodes),
+    /// `successful` when it counted as progress (a better controller so far or a higher elite
+    /// threshold: it reset the patience count), `seconds` since the start.
+    #[serde(flatten)]
+    pub record: IterationRecord,
+    /// The best value so far in this run: exact, or on the selection episodes.
+    pub best_so_far: f64,
     /// Mean over the laws' rows of their largest probability (1: every draw is the same controller).
     pub concentration: f64,
     /// Controllers evaluated (fewer than `samples` when the time limit cut the iteration).
     pub evaluated: usize,
     /// Whether the laws were mixed with the uniform law after this iteration (an escape).
     pub injected: bool,
-    /// Seconds since the start.
-    pub seconds: f64,
 }
 
 /// The outcome of a controller search.
@@ -91,44 +91,31 @@ pub struct ControllerOutcome {
 impl ControllerOutcome {
     /// The policy file of the best controller (model §6), with its provenance.
     pub fn to_file(&self, world: &dyn Episodes, config: &ControllerConfig) -> PolicyFile {
-        let mut provenance = json!({
-            "method": "controller-ce",
-            "value": self.kind.as_str(),
-            "seed": config.seed,
-            "nodes": config.nodes,
-            "samples": config.samples,
-            "rho": config.rho,
-            "alpha": config.smoothing,
-            "patience": config.patience,
-            "restarts": config.restarts,
-            "restart": self.restart,
-            "run_values": self.run_values,
-            "iterations": self.history.len(),
-            "best_iteration": self.best_iteration,
-            "stop": self.stop.as_str(),
-            "interrupted": self.stop == StopReason::Interrupted,
-            "version": crate::VERSION,
-        });
-        let map = provenance.as_object_mut().expect("an object");
+        let mut map = config.provenance();
+        for (key, value) in [
+            ("method", json!("controller-ce")),
+            ("value", json!(self.kind.as_str())),
+            ("restart", json!(self.restart)),
+            ("run_values", json!(self.run_values)),
+            ("iterations", json!(self.history.len())),
+            ("best_iteration", json!(self.best_iteration)),
+            ("stop", json!(self.stop.as_str())),
+            ("interrupted", json!(self.stop == StopReason::Interrupted)),
+            ("version", json!(crate::VERSION)),
+        ] {
+            map.insert(key.into(), value);
+        }
         match &self.evaluation {
             None => {
                 map.insert("exact_value".into(), json!(self.value));
             }
             Some(e) => {
-                for (key, value) in [
-                    ("episodes", json!(config.episodes)),
-                    ("candidates", json!(config.candidates)),
-                    ("select_episodes", json!(config.select_episodes)),
-                    ("injections", json!(config.injections)),
-                    ("injection", json!(config.injection)),
-                    ("evaluation_mean", json!(e.mean)),
-                    ("evaluation_std_error", json!(e.std_error)),
-                    ("evaluation_episodes", json!(e.episodes)),
-                ] {
-                    map.insert(key.into(), value);
-                }
+                map.insert("evaluation_mean".into(), json!(e.mean));
+                map.insert("evaluation_std_error".into(), json!(e.std_error));
+                map.insert("evaluation_episodes".into(), json!(e.episodes));
             }
         }
+        let provenance = serde_json::Value::Object(map);
         PolicyFile { policy: self.policy.clone(), world: world.description(), provenance }
     }
 }
@@ -336,7 +323,8 @@ impl Search<'_> {
             });
         let mut best_threshold = best_threshold.unwrap_or(f64::NEG_INFINITY);
         // A resumed run whose last iteration meets a stopping rule ends at once.
-        let resumed_stop = history.last().and_then(|r| rules.check(history.len(), r.best, since_progress, r.seconds));
+        let resumed_stop =
+            history.last().and_then(|r| rules.check(history.len(), r.best_so_far, since_progress, r.record.seconds));
         let stop = if let Some(stop) = resumed_stop {
             stop
         } else {
@@ -384,20 +372,25 @@ impl Search<'_> {
                     since_progress = 0;
                     best_threshold = f64::NEG_INFINITY;
                 }
+                let elite_mean = order[..kept].iter().map(|&i| drawn[i].0).sum::<f64>() / kept as f64;
                 let record = ControllerIteration {
                     restart,
-                    iteration,
-                    mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
-                    elite_min: threshold,
-                    max: drawn[top].0,
-                    best: best.as_ref().map_or(f64::NAN, |b| b.0),
+                    record: IterationRecord {
+                        iteration,
+                        mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
+                        best: drawn[top].0,
+                        elite_threshold: threshold,
+                        elite_mean,
+                        seconds: saver.seconds(),
+                        successful: progress,
+                    },
+                    best_so_far: best.as_ref().map_or(f64::NAN, |b| b.0),
                     concentration: laws.concentration(),
                     evaluated: drawn.len(),
                     injected,
-                    seconds: saver.seconds(),
                 };
                 let flow = observe(&record);
-                let (value, seconds) = (record.best, record.seconds);
+                let (value, seconds) = (record.best_so_far, record.record.seconds);
                 history.push(record);
                 let stop = if flow == Flow::Stop {
                     Some(StopReason::Interrupted)

@@ -1,0 +1,117 @@
+//! Settings by name (`ceworld::settings`): every setting a config serialises can be set by that
+//! name, so that a new setting reaches Python, checkpoints and provenance from its config alone.
+
+use ceworld::settings::{Given, Setting, Settings};
+use ceworld::{CeConfig, ControllerConfig, Error};
+use serde_json::Value;
+
+/// The setting `name` given as its JSON value (as the Python bindings would give it).
+fn setting<'a>(name: &'a str, value: &Value) -> Setting<'a> {
+    let given = match value {
+        Value::Null => Given::Nothing,
+        Value::Bool(b) => Given::Bool(*b),
+        Value::Number(n) if n.is_u64() => Given::Int(i128::from(n.as_u64().unwrap())),
+        Value::Number(n) if n.is_i64() => Given::Int(i128::from(n.as_i64().unwrap())),
+        Value::Number(n) => Given::Real(n.as_f64().unwrap()),
+        Value::String(s) => Given::Text(s.clone()),
+        _ => Given::Other,
+    };
+    Setting { name, value: given, shown: value.to_string() }
+}
+
+/// Sets every setting of `changed` by name on a default config and checks the result is `changed`.
+fn every_setting_is_set_by_its_name<S: Settings + Default + PartialEq + std::fmt::Debug>(changed: &S) {
+    let Value::Object(map) = serde_json::to_value(changed).unwrap() else { panic!("not an object") };
+    let mut config = S::default();
+    for (name, value) in &map {
+        config.set(&setting(name, value)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    assert_eq!(&config, changed);
+    assert_eq!(config.names().len(), map.len());
+}
+
+#[test]
+fn every_ce_setting_is_set_by_its_name() {
+    every_setting_is_set_by_its_name(&CeConfig {
+        samples: 7,
+        rho: 0.25,
+        smoothing: 0.5,
+        decision_smoothing: Some(0.125),
+        patience: 3,
+        max_iterations: Some(9),
+        time_limit: Some(2.5),
+        target: Some(-1.5),
+        seed: u64::MAX,
+        threads: Some(2),
+        eval_episodes: 11,
+        memory_update: ceworld::MemoryUpdate::ForwardBackward,
+        restarts: 4,
+    });
+    every_setting_is_set_by_its_name(&CeConfig::default());
+}
+
+#[test]
+fn every_controller_setting_is_set_by_its_name() {
+    every_setting_is_set_by_its_name(&ControllerConfig {
+        nodes: 3,
+        samples: 17,
+        rho: 0.125,
+        smoothing: 0.25,
+        patience: 5,
+        max_iterations: Some(6),
+        target: Some(1.5),
+        time_limit: Some(8.0),
+        tolerance: 1e-3,
+        seed: 12,
+        threads: Some(1),
+        restarts: 2,
+        episodes: 13,
+        candidates: 2,
+        select_episodes: 30,
+        eval_episodes: 40,
+        injection: 0.5,
+        injections: 3,
+        template: ceworld::ce::controller::Template::Window,
+        template_weight: 0.75,
+    });
+    every_setting_is_set_by_its_name(&ControllerConfig::default());
+}
+
+#[test]
+fn a_bad_setting_is_named() {
+    let mut config = CeConfig::default();
+    match config.set(&setting("sample", &Value::from(3))) {
+        Err(Error::InvalidArgument { name, message }) => {
+            assert_eq!(name, "setting");
+            assert!(message.starts_with("\"sample\"") && message.contains("samples"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let cases = [
+        ("samples", Value::from(-1), "non-negative int", true),
+        ("samples", Value::from(2.0), "non-negative int", false),
+        ("rho", Value::from("0.5"), "a number", false),
+        ("patience", Value::Null, "non-negative int", false),
+        ("memory_update", Value::from("posterior"), "forward-backward", true),
+    ];
+    for (name, value, expected, invalid) in cases {
+        match (config.set(&setting(name, &value)), invalid) {
+            (Err(Error::InvalidArgument { name: n, message }), true)
+            | (Err(Error::WrongType { name: n, message }), false) => {
+                assert_eq!(n, if name == "memory_update" { "memory_update" } else { name });
+                assert!(message.contains(expected), "{name}: {message}");
+            }
+            (other, _) => panic!("{name}: {other:?}"),
+        }
+    }
+    assert_eq!(config, CeConfig::default(), "a refused setting changes nothing");
+}
+
+#[test]
+fn the_provenance_records_every_set_setting_by_name() {
+    let config = CeConfig { decision_smoothing: Some(0.5), threads: Some(2), ..CeConfig::default() };
+    let p = config.provenance();
+    assert_eq!(p["decision_smoothing"], 0.5);
+    assert!(!p.contains_key("threads") && !p.contains_key("max_iterations"));
+    assert_eq!(p["samples"], 1000);
+}
