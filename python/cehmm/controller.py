@@ -44,7 +44,8 @@ class ControllerResult:
             ``concentration`` (mean largest probability of the laws' rows: 1 when every draw is
             the same controller), ``evaluated`` (controllers evaluated: fewer than ``samples``
             when the time limit cut the iteration), ``injected`` (bool: the laws were mixed
-            with the uniform law after this iteration) and ``seconds``.
+            with the uniform law after this iteration), ``grown`` (bool: the laws grew a node
+            after this iteration) and ``seconds``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
             ``"time_limit"`` or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
@@ -95,6 +96,7 @@ def optimize_controller(
     eval_episodes: int = CONTROLLER_DEFAULTS["eval_episodes"],
     injection: float = CONTROLLER_DEFAULTS["injection"],
     injections: int = CONTROLLER_DEFAULTS["injections"],
+    growths: int = CONTROLLER_DEFAULTS["growths"],
     template: str | None = None,
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     progress: bool = True,
@@ -157,6 +159,10 @@ def optimize_controller(
         injection: the weight of the uniform law mixed into every law at an escape.
         injections: escapes per run: when patience runs out, mix the uniform law in and go on
             (0: stop).
+        growths: escapes by growth per run, once the injections are spent: when patience runs
+            out, start the laws again around the best controller with one node more (the new
+            node a copy of the node it enters most) and go on; the policy returned may have up
+            to ``nodes + growths`` nodes.
         template: the memory the laws start from: ``"uniform"``, ``"hold"`` (a latch: every
             node but the start node stays where it is), ``"clock"`` (node ``q`` moves on to
             ``q + 1``), ``"mixed"`` (both) or ``"window"`` (the last observations: node ``q``
@@ -213,6 +219,7 @@ def optimize_controller(
                 eval_episodes=eval_episodes,
                 injection=injection,
                 injections=injections,
+                growths=growths,
                 template_weight=template_weight,
                 target=target,
                 # None: the default of the kind of value used.

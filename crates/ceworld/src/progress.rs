@@ -171,7 +171,11 @@ impl Step for ControllerIteration {
         "best value"
     }
     fn detail(&self) -> String {
-        let escape = if self.injected { "  escape" } else { "" };
+        let escape = match (self.injected, self.grown) {
+            (true, _) => "  escape: injection",
+            (_, true) => "  escape: growth",
+            _ => "",
+        };
         format!("concentration {:.3}{escape}", self.concentration)
     }
 }

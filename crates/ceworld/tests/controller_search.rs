@@ -222,17 +222,21 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         nodes: 3,
         samples: 80,
         rho: 0.1,
-        patience: 4,
-        max_iterations: Some(7),
+        patience: 2,
+        max_iterations: Some(10),
         restarts: 2,
         episodes: 5,
         select_episodes: 30,
         eval_episodes: 40,
         injections: 1,
+        growths: 1,
         ..ControllerConfig::default()
     };
     for (name, valued) in [("exact", Valued::Exact(&tiger)), ("sampled", Valued::Sampled(&tiger))] {
         let whole = optimize_controller(valued, &config, |_| Flow::Continue).unwrap();
+        // Both escapes are taken, so that the state they change is resumed too.
+        let (injected, grown) = (whole.history.iter().any(|r| r.injected), whole.history.iter().any(|r| r.grown));
+        assert!(injected && grown, "{name}: injected {injected}, grown {grown}");
         let path = dir.join(format!("{name}.ckpt"));
         let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: true };
         // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.

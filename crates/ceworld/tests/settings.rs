@@ -71,6 +71,7 @@ fn every_controller_setting_is_set_by_its_name() {
         eval_episodes: 40,
         injection: 0.5,
         injections: 3,
+        growths: 2,
         template: ceworld::ce::controller::Template::Window,
         template_weight: 0.75,
     });

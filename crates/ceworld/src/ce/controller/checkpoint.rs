@@ -28,8 +28,11 @@ pub struct SearchState {
     pub since_progress: usize,
     /// The highest elite threshold so far (`None`: none since the start or the last escape).
     pub best_threshold: Option<f64>,
-    /// Escapes taken.
+    /// Entropy injections taken.
     pub injections: usize,
+    /// Growths taken (the laws have `nodes + growths` nodes).
+    #[serde(default)]
+    pub growths: usize,
 }
 
 /// A run that is over.

@@ -173,6 +173,12 @@ pub struct ControllerConfig {
     /// The most entropy injections of one run (0: a run stops when patience runs out).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().injections))]
     pub injections: usize,
+    /// Escapes by growth: when patience runs out and no injection is left, at most this many
+    /// times, the laws start again around the best controller of the run with one node more
+    /// (the new node a copy of the node it enters most, `injection` of the uniform law mixed
+    /// in), and the run goes on; the controller returned may have up to `nodes + growths` nodes.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().growths))]
+    pub growths: usize,
     /// The memory the laws start from.
     #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().template))]
     pub template: Template,
@@ -202,6 +208,7 @@ impl Settings for ControllerConfig {
             "eval_episodes" => self.eval_episodes = s.count()?,
             "injection" => self.injection = s.real()?,
             "injections" => self.injections = s.count()?,
+            "growths" => self.growths = s.count()?,
             "template" => self.template = s.choice(Template::parse)?,
             "template_weight" => self.template_weight = s.real()?,
             other => return Err(self.unknown(other)),
@@ -231,6 +238,7 @@ impl Default for ControllerConfig {
             eval_episodes: 10_000,
             injection: 0.2,
             injections: 0,
+            growths: 0,
             template: Template::Uniform,
             template_weight: 0.5,
         }
@@ -271,6 +279,12 @@ impl ControllerConfig {
             return Err(Error::invalid(
                 "nodes",
                 format!("{} (expected 1..={})", self.nodes, crate::policy::MAX_LEVEL_SIZE),
+            ));
+        }
+        if self.growths > crate::policy::MAX_LEVEL_SIZE - self.nodes {
+            return Err(Error::invalid(
+                "growths",
+                format!("{} (expected nodes + growths <= {})", self.growths, crate::policy::MAX_LEVEL_SIZE),
             ));
         }
         if self.samples == 0 || self.samples > MAX_SAMPLES {

@@ -108,6 +108,39 @@ fn pick(row: &[f64], u: f64) -> u32 {
 }
 
 impl Laws {
+    /// Laws one node larger than `best`, around it (an escape by growth): every law is the
+    /// one-hot law of `best`'s choice, with a new node `n` that copies the node `k` that `best`
+    /// enters most (its decision and successors), every move into `k` split evenly between `k`
+    /// and its copy; then `weight` of the uniform law is mixed in ([`Laws::inject`]). With
+    /// `weight = 0` every controller drawn behaves as `best` does.
+    pub(super) fn grown(best: &Controller, n_actions: usize, y1: usize, weight: f64) -> Laws {
+        let n = best.nodes();
+        let mut entered = vec![0usize; n];
+        for &q in &best.next {
+            entered[q as usize] += 1;
+        }
+        // The most entered node, the first of equals.
+        let k = (0..n).fold(0, |b, q| if entered[q] > entered[b] { q } else { b });
+        let n1 = n + 1;
+        let mut laws = Laws { n: n1, n_actions, y1, act: vec![0.0; n1 * n_actions], next: vec![0.0; n1 * y1 * n1] };
+        for q in 0..n1 {
+            let from = if q == n { k } else { q };
+            laws.act[q * n_actions + best.act[from] as usize] = 1.0;
+            for y in 0..y1 {
+                let to = best.next[from * y1 + y] as usize;
+                let row = &mut laws.next[(q * y1 + y) * n1..(q * y1 + y + 1) * n1];
+                if to == k {
+                    row[k] = 0.5;
+                    row[n] = 0.5;
+                } else {
+                    row[to] = 1.0;
+                }
+            }
+        }
+        laws.inject(weight);
+        laws
+    }
+
     /// Mixes `weight` (`ε`) of the uniform law into every law: `p := (1 − ε)·p + ε/|row|`.
     pub(super) fn inject(&mut self, weight: f64) {
         let (a, n) = (1.0 / self.n_actions as f64, 1.0 / self.n as f64);
@@ -144,6 +177,44 @@ mod tests {
         for laws in [&hold, &clock, &mixed, &window] {
             assert!(laws.next.chunks(n).all(|r| (r.iter().sum::<f64>() - 1.0).abs() < 1e-12));
         }
+    }
+
+    /// The decisions `c` takes on the observations `ys` (the start observation first).
+    fn decisions(c: &Controller, y1: usize, ys: &[usize]) -> Vec<u32> {
+        let mut q = 0;
+        ys.iter()
+            .map(|&y| {
+                q = c.next[q * y1 + y] as usize;
+                c.act[q]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn grown_laws_draw_controllers_that_behave_as_the_one_they_grew_from() {
+        let (n_actions, y1) = (3, 4);
+        let mut rng = stream(9, Purpose::Optimise, 0, 0);
+        for case in 0..20 {
+            let best = Laws::uniform(3, n_actions, y1).draw(&mut rng);
+            let grown = Laws::grown(&best, n_actions, y1, 0.0);
+            assert_eq!((grown.nodes(), grown.shape()), (4, (n_actions, y1)));
+            assert!(
+                grown
+                    .next
+                    .chunks(4)
+                    .chain(grown.act.chunks(n_actions))
+                    .all(|r| (r.iter().sum::<f64>() - 1.0).abs() < 1e-12)
+            );
+            for k in 0..10 {
+                let c = grown.draw(&mut rng);
+                assert_eq!(c.nodes(), 4);
+                let ys: Vec<usize> = (0..12).map(|t| (t * 7 + k * 3 + case) % y1).collect();
+                assert_eq!(decisions(&c, y1, &ys), decisions(&best, y1, &ys), "case {case}");
+            }
+        }
+        // The uniform law mixed in: every successor has some probability.
+        let best = Laws::uniform(2, n_actions, y1).draw(&mut rng);
+        assert!(Laws::grown(&best, n_actions, y1, 0.2).next.iter().all(|&p| p >= 0.2 / 3.0 - 1e-12));
     }
 
     #[test]

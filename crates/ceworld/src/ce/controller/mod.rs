@@ -59,6 +59,9 @@ pub struct ControllerIteration {
     pub evaluated: usize,
     /// Whether the laws were mixed with the uniform law after this iteration (an escape).
     pub injected: bool,
+    /// Whether the laws grew a node after this iteration (an escape).
+    #[serde(default)]
+    pub grown: bool,
 }
 
 /// The outcome of a controller search.
@@ -147,7 +150,8 @@ pub fn optimize_controller_with(
     let shape = world.episodes().shape();
     let (n_actions, y1) = (shape.decisions, shape.observations);
     // The policy must fit before any work.
-    Layout::new(y1, n_actions, &[config.nodes, config.nodes])?.fits_in_memory()?;
+    let most = config.nodes + config.growths;
+    Layout::new(y1, n_actions, &[most, most])?.fits_in_memory()?;
     if let Valued::Sampled(_) = world {
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
@@ -155,7 +159,7 @@ pub fn optimize_controller_with(
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
     let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing)?;
     if let Some(run) = &saver.state.run
-        && (run.laws.nodes() != config.nodes || run.laws.shape() != (n_actions, y1))
+        && (run.laws.nodes() != config.nodes + run.growths || run.laws.shape() != (n_actions, y1))
     {
         return Err(crate::error::Error::CheckpointMismatch("the checkpoint's laws do not fit this search".into()));
     }
@@ -300,6 +304,37 @@ impl Search<'_> {
         Ok((scores[b], few[b]))
     }
 
+    /// An escape from a run whose patience ran out, if any is left: an entropy injection, else
+    /// a growth around `best`; (injected, grown).
+    fn escape(&self, laws: &mut Laws, best: &Controller, injections: &mut usize, growths: &mut usize) -> (bool, bool) {
+        let config = self.config;
+        if *injections < config.injections {
+            laws.inject(config.injection);
+            *injections += 1;
+            (true, false)
+        } else if *growths < config.growths {
+            *laws = Laws::grown(best, self.n_actions, self.y1, config.injection);
+            *growths += 1;
+            (false, true)
+        } else {
+            (false, false)
+        }
+    }
+
+    /// The state of a run that has not started: the first laws.
+    fn fresh(&self) -> SearchState {
+        let c = self.config;
+        SearchState {
+            laws: Laws::start(c.nodes, self.n_actions, self.y1, c.template, c.template_weight),
+            best: None,
+            history: Vec::new(),
+            since_progress: 0,
+            best_threshold: None,
+            injections: 0,
+            growths: 0,
+        }
+    }
+
     /// One run with `seed`, from its first laws or from the saved state `resume`.
     fn run(
         &self,
@@ -312,15 +347,15 @@ impl Search<'_> {
         let config = self.config;
         let rules = config.stop_rules();
         let elite_size = config.elite_count();
-        let SearchState { mut laws, mut best, mut history, mut since_progress, best_threshold, mut injections } =
-            resume.unwrap_or_else(|| SearchState {
-                laws: Laws::start(config.nodes, self.n_actions, self.y1, config.template, config.template_weight),
-                best: None,
-                history: Vec::new(),
-                since_progress: 0,
-                best_threshold: None,
-                injections: 0,
-            });
+        let SearchState {
+            mut laws,
+            mut best,
+            mut history,
+            mut since_progress,
+            best_threshold,
+            mut injections,
+            mut growths,
+        } = resume.unwrap_or_else(|| self.fresh());
         let mut best_threshold = best_threshold.unwrap_or(f64::NEG_INFINITY);
         // A resumed run whose last iteration meets a stopping rule ends at once.
         let resumed_stop =
@@ -364,15 +399,18 @@ impl Search<'_> {
                     let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
                     laws.refit(&elite, config.smoothing);
                 }
-                // Patience run out with injections left: mix in the uniform law and go on.
-                let injected = since_progress >= config.patience && injections < config.injections;
-                if injected {
-                    laws.inject(config.injection);
-                    injections += 1;
+                // Patience run out with escapes left: mix in the uniform law, or else grow a
+                // node around the best controller, and go on.
+                let (injected, grown) = if since_progress >= config.patience {
+                    let from = best.as_ref().map(|b| &b.1).expect("a best controller after an iteration");
+                    self.escape(&mut laws, from, &mut injections, &mut growths)
+                } else {
+                    (false, false)
+                };
+                if injected || grown {
                     since_progress = 0;
                     best_threshold = f64::NEG_INFINITY;
                 }
-                let elite_mean = order[..kept].iter().map(|&i| drawn[i].0).sum::<f64>() / kept as f64;
                 let record = ControllerIteration {
                     restart,
                     record: IterationRecord {
@@ -380,7 +418,7 @@ impl Search<'_> {
                         mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
                         best: drawn[top].0,
                         elite_threshold: threshold,
-                        elite_mean,
+                        elite_mean: order[..kept].iter().map(|&i| drawn[i].0).sum::<f64>() / kept as f64,
                         seconds: saver.seconds(),
                         successful: progress,
                     },
@@ -388,6 +426,7 @@ impl Search<'_> {
                     concentration: laws.concentration(),
                     evaluated: drawn.len(),
                     injected,
+                    grown,
                 };
                 let flow = observe(&record);
                 let (value, seconds) = (record.best_so_far, record.record.seconds);
@@ -405,6 +444,7 @@ impl Search<'_> {
                     since_progress,
                     best_threshold: threshold,
                     injections,
+                    growths,
                 })?;
                 if let Some(stop) = stop {
                     break stop;
