@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 import cehmm
@@ -128,3 +130,16 @@ def test_exported_names() -> None:
     for name in cehmm.__all__:
         assert hasattr(cehmm, name), name
     assert cehmm.__version__ == "0.1.0"
+
+
+def test_an_unwritable_checkpoint_is_refused_before_the_run(case1: cehmm.TargetTracking, tmp_path: Path) -> None:
+    # The runs would last a minute (their time limit) if the refusal came at the first save.
+    path = tmp_path / "missing" / "run.ckpt"
+    long = dict(max_iterations=10**9, time_limit=60.0)
+    with pytest.raises(FileNotFoundError) as raised:
+        cehmm.optimize(case1, checkpoint=path, **{**FAST, **long})
+    assert raised.value.filename == str(path)
+    with pytest.raises(FileNotFoundError) as raised:
+        cehmm.optimize_controller(case1, nodes=2, samples=10, checkpoint=path, progress=False, **long)
+    assert raised.value.filename == str(path)
+    assert not path.parent.exists()

@@ -4,7 +4,9 @@
 //! an interruption leaves the target untouched. A target that exists and is not a regular file
 //! is refused (a directory, a device such as `/dev/null`, a socket, a pipe); a symbolic link is
 //! written through: the file it points to is replaced, the link stays. Reads refuse a file over
-//! a stated size before reading it.
+//! a stated size before reading it. Errors name the path the caller gave, never the temporary
+//! file; the temporary files a killed writer left beside the same target are removed by the next
+//! write. [`check_writable`] tells before a long run whether its outputs can be written.
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
@@ -42,25 +44,72 @@ fn target(path: &Path) -> Result<PathBuf> {
     Err(Error::invalid("path", format!("{} (too many levels of symbolic links)", path.display())))
 }
 
-/// Writes `path` through a unique temporary file in its folder, synced, then renamed over it.
-pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
+/// The folder and file name of the file `path` names for writing.
+fn place(path: &Path) -> Result<(PathBuf, PathBuf, String)> {
     let target = target(path)?;
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let name = target.file_name().map_or_else(|| "file".into(), |n| n.to_string_lossy().into_owned());
+    Ok((target, dir, name))
+}
+
+/// A fresh temporary file beside `name` in `dir`, created exclusively: `.NAME.PID.N.NANOS.tmp`.
+fn temporary(path: &Path, dir: &Path, name: &str) -> Result<(File, PathBuf)> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
     let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.subsec_nanos());
-    let (file, tmp) = loop {
+    loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let tmp = dir.join(format!(".{name}.{}.{n}.{nanos}.tmp", std::process::id()));
         match OpenOptions::new().write(true).create_new(true).open(&tmp) {
-            Ok(file) => break (file, tmp),
+            Ok(file) => return Ok((file, tmp)),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-            Err(source) => return Err(Error::Io { path: tmp, source }),
+            Err(source) => return Err(Error::Io { path: path.to_path_buf(), source }),
         }
-    };
+    }
+}
+
+/// Refuses, before any work, a `path` that cannot be written: a missing or read-only folder,
+/// a directory, a device (it creates and removes a temporary file beside it).
+pub fn check_writable(path: &Path) -> Result<()> {
+    let (_, dir, name) = place(path)?;
+    let (file, tmp) = temporary(path, &dir, &name)?;
+    drop(file);
+    let _ = std::fs::remove_file(&tmp);
+    Ok(())
+}
+
+/// Removes the temporary files of `name` in `dir` that a writer killed before it renamed them
+/// left behind (those of processes that no longer run).
+fn remove_stale(dir: &Path, name: &str) {
+    #[cfg(unix)]
+    {
+        let prefix = format!(".{name}.");
+        let Ok(entries) = std::fs::read_dir(dir) else { return };
+        for entry in entries.flatten() {
+            let file = entry.file_name().to_string_lossy().into_owned();
+            let Some(rest) = file.strip_prefix(&prefix).and_then(|r| r.strip_suffix(".tmp")) else { continue };
+            let Some(pid) = rest.split('.').next().and_then(|p| p.parse::<libc::pid_t>().ok()) else { continue };
+            if rest.split('.').count() != 3 || pid <= 0 || pid as u32 == std::process::id() {
+                continue;
+            }
+            // SAFETY: signal 0 only asks whether the process exists.
+            let gone = unsafe { libc::kill(pid, 0) } == -1
+                && std::io::Error::last_os_error().raw_os_error() == Some(libc::ESRCH);
+            if gone {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = (dir, name);
+}
+
+/// Writes `path` through a unique temporary file in its folder, synced, then renamed over it.
+pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
+    let (target, dir, name) = place(path)?;
+    let (file, tmp) = temporary(path, &dir, &name)?;
     let written = (|| -> std::io::Result<()> {
         let mut out = BufWriter::with_capacity(1 << 20, file);
         write(&mut out)?;
@@ -70,8 +119,9 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std
     })();
     if let Err(source) = written {
         let _ = std::fs::remove_file(&tmp);
-        return Err(Error::Io { path: target, source });
+        return Err(Error::Io { path: path.to_path_buf(), source });
     }
+    remove_stale(&dir, &name);
     // Make the rename itself durable (best effort: not every system can sync a folder).
     if let Ok(d) = File::open(&dir) {
         let _ = d.sync_all();
@@ -164,6 +214,42 @@ mod tests {
             });
         });
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn unwritable_paths_are_found_before_any_work_and_named_as_given() {
+        let dir = temp_dir("writable");
+        let missing = dir.join("no-such-folder").join("p.json");
+        for bad in [missing.clone(), dir.clone()] {
+            let e = check_writable(&bad).unwrap_err().to_string();
+            assert!(e.contains(&bad.display().to_string()) && !e.contains(".tmp"), "{e}");
+        }
+        let e = write_atomic(&missing, |out| out.write_all(b"x")).unwrap_err().to_string();
+        assert!(e.contains(&missing.display().to_string()) && !e.contains(".tmp"), "{e}");
+        let fine = dir.join("p.json");
+        check_writable(&fine).unwrap();
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "the probe leaves nothing");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_write_removes_the_temporaries_a_killed_writer_left() {
+        let dir = temp_dir("stale");
+        // A process that has ended: its pid runs nothing now.
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let dead = child.id();
+        child.wait().unwrap();
+        let stale = dir.join(format!(".p.json.{dead}.0.123.tmp"));
+        let other = dir.join(format!(".q.json.{dead}.0.123.tmp"));
+        let mine = dir.join(format!(".p.json.{}.99.123.tmp", std::process::id()));
+        for f in [&stale, &other, &mine] {
+            std::fs::write(f, b"partial").unwrap();
+        }
+        write_atomic(&dir.join("p.json"), |out| out.write_all(b"whole")).unwrap();
+        assert!(!stale.exists(), "the dead writer's temporary of this target is removed");
+        assert!(other.exists() && mine.exists(), "another target's and a live writer's stay");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

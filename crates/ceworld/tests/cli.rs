@@ -121,6 +121,29 @@ fn bad_arguments_are_named() {
 }
 
 #[test]
+fn unwritable_outputs_are_refused_before_the_run() {
+    let good = temp("p.json");
+    let dir = good.parent().unwrap().to_path_buf();
+    let missing = dir.join("missing").join("p.json");
+    let bad_ckpt = dir.join("missing").join("run.ckpt");
+    let (g, m, d, c) =
+        (good.to_str().unwrap(), missing.to_str().unwrap(), dir.to_str().unwrap(), bad_ckpt.to_str().unwrap());
+    // 10^9 iterations would run for hours: each refusal comes before the first.
+    let long = ["--case", "1", "--samples", "100000", "--max-iterations", "1000000000"];
+    for command in ["optimize", "controller"] {
+        for (out, checkpoint, named) in [(m, None, m), (d, None, d), (g, Some(c), c)] {
+            let mut args = vec![command, "--out", out];
+            if let Some(c) = checkpoint {
+                args.extend(["--checkpoint", c]);
+            }
+            args.extend(long);
+            fails_with(&args, &[named]);
+        }
+    }
+    assert!(!good.exists());
+}
+
+#[test]
 fn bad_policy_files_are_refused() {
     let path = temp("bad.json");
     let p = path.to_str().unwrap();

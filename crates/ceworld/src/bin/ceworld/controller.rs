@@ -53,6 +53,8 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         ..args.config.clone()
     };
     config.validate()?;
+    // The result is not lost to an unwritable --out found after the run.
+    ceworld::files::check_writable(&args.out)?;
     let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
     stop::install();
     let mut progress = (!args.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));

@@ -239,6 +239,8 @@ fn run_optimize(args: &OptimizeArgs) -> Result<()> {
 fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     let config = args.config.clone();
     config.validate()?;
+    // The result is not lost to an unwritable --out found after the run.
+    ceworld::files::check_writable(&args.out)?;
     let initial = if let Some(path) = &args.init {
         PolicyFile::load(path)?.policy
     } else {
