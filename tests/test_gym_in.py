@@ -52,6 +52,18 @@ def test_the_flattening_is_row_major() -> None:
     assert flat(spaces.Tuple((spaces.Discrete(2), spaces.Discrete(3)))).index((1, 0)) == 3
 
 
+def test_spaces_too_large_to_index_are_refused_with_their_exact_size() -> None:
+    # numpy's int64 product wrapped: the first was taken as 2 values, the second as negative.
+    for space, size in [
+        (spaces.MultiDiscrete([3, (2**64 + 2) // 3]), 3 * ((2**64 + 2) // 3)),
+        (spaces.MultiBinary(63), 2**63),
+        (spaces.Tuple((spaces.MultiBinary(40), spaces.MultiBinary(40))), 2**80),
+    ]:
+        with pytest.raises(cehmm.InvalidArgumentError, match=f"has {size} values"):
+            flat(space)
+    assert flat(spaces.MultiBinary(62)).size == 2**62
+
+
 def test_continuous_and_other_spaces_are_refused_with_a_hint() -> None:
     box = gym.make("CartPole-v1")
     with pytest.raises(cehmm.InvalidArgumentError, match=r"observation space: Box.*is continuous.*Discrete space"):

@@ -13,6 +13,7 @@ stops feeding an episode once it has ended).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -41,6 +42,10 @@ def make_env(world: Any) -> Any:
                 f"registered Gymnasium environment: {e})"
             ) from e
     return world()
+
+
+# The most values a flattened space may have: its indices are 64-bit signed integers.
+_MAX_SIZE = 2**63 - 1
 
 
 class Flat:
@@ -77,7 +82,13 @@ class Flat:
                 else " (expected Discrete, MultiDiscrete, MultiBinary or a Tuple of them)"
             )
             raise _core.InvalidArgumentError(f"invalid {role} space: {space}{hint}")
-        self.size = int(np.prod(self.radices, dtype=np.int64)) if self.radices else 1
+        # Exact (Python ints): numpy's int64 product wraps silently past 2**63.
+        self.size = math.prod(self.radices)
+        if self.size > _MAX_SIZE:
+            raise _core.InvalidArgumentError(
+                f"invalid {role} space: {space} has {self.size} values (at most 2**63 - 1 can be indexed; "
+                "group or discretise its values with a wrapper)"
+            )
 
     def index(self, value: Any) -> int:
         """The index of a value of the space."""
