@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -143,3 +144,16 @@ def test_an_unwritable_checkpoint_is_refused_before_the_run(case1: cehmm.TargetT
         cehmm.optimize_controller(case1, nodes=2, samples=10, checkpoint=path, progress=False, **long)
     assert raised.value.filename == str(path)
     assert not path.parent.exists()
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+def test_devices_and_fifos_are_refused_on_read_at_once(tmp_path: Path) -> None:
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    link = tmp_path / "link"
+    link.symlink_to("/dev/zero")
+    for path in ["/dev/zero", str(fifo), str(link)]:
+        with pytest.raises(cehmm.InvalidArgumentError, match="not a regular file"):
+            cehmm.Policy.load(path)
+        with pytest.raises(cehmm.InvalidArgumentError, match="not a regular file"):
+            cehmm.PomdpWorld.from_file(path)

@@ -236,3 +236,27 @@ def test_a_batched_world_returning_the_wrong_shape_or_type_is_named(fault: str, 
     policy = cehmm.Policy.uniform(cehmm.PythonWorld(Counter()), [2])
     with pytest.raises(cehmm.WorldError, match=r"^world test_outside\.Short, " + message):
         policy.evaluate(Short(fault), episodes=20)
+
+
+def test_episodes_worth_1e308_keep_a_finite_mean_and_their_checkpoint(tmp_path) -> None:
+    # The plain sum of the episodes' values overflowed: mean inf, and the checkpoint refused it.
+    huge = dict(score=lambda o, d, r: 1e308 * (1.0 - 0.5 * (d[0] == 0)), horizon=3)
+    path = tmp_path / "run.ckpt"
+    result = cehmm.optimize(
+        Corridor(), levels=[2], samples=50, max_iterations=3, eval_episodes=50, progress=False, checkpoint=path, **huge
+    )
+    assert np.all(np.isfinite(result.history["mean"])) and np.all(result.history["mean"] >= 0.5e308)
+    assert math.isfinite(result.evaluation.mean) and math.isfinite(result.evaluation.std)
+    assert path.exists()
+    controller = cehmm.optimize_controller(
+        Corridor(),
+        nodes=2,
+        samples=20,
+        episodes=5,
+        select_episodes=10,
+        eval_episodes=20,
+        max_iterations=2,
+        progress=False,
+        **huge,
+    )
+    assert math.isfinite(controller.value) and np.all(np.isfinite(controller.history["mean"]))

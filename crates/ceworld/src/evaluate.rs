@@ -29,27 +29,50 @@ pub struct Evaluation {
     pub quantiles: Vec<(f64, f64)>,
 }
 
+/// The mean of `values`, finite when they are: their plain sum over their count (so that no
+/// result changes), or, where that sum overflows, the sum of the values scaled by the largest
+/// magnitude (rewards of 1e308 have the mean 1e308, not infinity).
+pub fn mean<I: Iterator<Item = f64> + Clone>(values: I) -> f64 {
+    let (sum, n) = (values.clone().sum::<f64>(), values.clone().count());
+    if sum.is_finite() || n == 0 {
+        return sum / n as f64;
+    }
+    let scale = values.clone().fold(0.0, |m: f64, v| m.max(v.abs()));
+    if !scale.is_finite() {
+        return sum / n as f64;
+    }
+    values.map(|v| v / scale).sum::<f64>() / n as f64 * scale
+}
+
+/// The sample standard deviation of `rewards` about `mean` and the standard error of the mean,
+/// scaled as [`mean`] is where the plain sum of squares overflows.
+fn spread(rewards: &[f64], mean: f64) -> (f64, f64) {
+    let n = rewards.len();
+    if n < 2 {
+        return (0.0, 0.0);
+    }
+    let var = rewards.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+    let scale = rewards.iter().fold(0.0, |m: f64, v| m.max((v - mean).abs()));
+    if var.is_finite() || !scale.is_finite() || scale == 0.0 {
+        return (var.sqrt(), (var / n as f64).sqrt());
+    }
+    let std = scale * (rewards.iter().map(|r| ((r - mean) / scale).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+    (std, std / (n as f64).sqrt())
+}
+
 impl Evaluation {
     /// Summarises the rewards (in any order).
     pub fn from_rewards(rewards: &[f64]) -> Evaluation {
         let n = rewards.len();
-        let mean = rewards.iter().sum::<f64>() / n as f64;
-        let var = if n > 1 { rewards.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / (n - 1) as f64 } else { 0.0 };
+        let mean = mean(rewards.iter().copied());
+        let (std, std_error) = spread(rewards, mean);
         let mut sorted = rewards.to_vec();
         sorted.sort_by(f64::total_cmp);
         let quantiles = [0.05, 0.25, 0.5, 0.75, 0.95]
             .into_iter()
             .map(|q| (q, sorted[((q * n as f64).ceil() as usize).clamp(1, n) - 1]))
             .collect();
-        Evaluation {
-            episodes: n,
-            mean,
-            std_error: (var / n as f64).sqrt(),
-            std: var.sqrt(),
-            min: sorted[0],
-            max: sorted[n - 1],
-            quantiles,
-        }
+        Evaluation { episodes: n, mean, std_error, std, min: sorted[0], max: sorted[n - 1], quantiles }
     }
 }
 
@@ -101,8 +124,7 @@ fn episode_rewards<E: Episodes + ?Sized>(
 pub fn selection_mean<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
     check_fits(world, policy)?;
     // Summed in episode order, so the score does not depend on the thread count.
-    let total: f64 = episode_rewards(world, policy, 0..episodes, seed, Purpose::Select)?.iter().sum();
-    Ok(total / episodes as f64)
+    Ok(mean(episode_rewards(world, policy, 0..episodes, seed, Purpose::Select)?.iter().copied()))
 }
 
 /// Mean, standard error, extremes and quantiles of the reward over fresh episodes.
@@ -128,6 +150,20 @@ pub fn rollout<W: World>(world: &W, policy: &Hhmm, seed: u64, episode: u64) -> R
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn finite_rewards_have_a_finite_mean_and_spread() {
+        let e = Evaluation::from_rewards(&[1e308; 10]);
+        assert_eq!((e.mean, e.std, e.std_error), (1e308, 0.0, 0.0));
+        let e = Evaluation::from_rewards(&[1.5e308, 0.5e308, 1.5e308, 0.5e308]);
+        assert!((e.mean / 1e308 - 1.0).abs() < 1e-12, "{}", e.mean);
+        assert!(e.std.is_finite() && (e.std / (0.5e308 * (4.0f64 / 3.0).sqrt()) - 1.0).abs() < 1e-12, "{}", e.std);
+        assert_eq!(mean([f64::MAX, -f64::MAX].into_iter()), 0.0);
+        // Ordinary values keep the plain sum over the count, bit for bit.
+        let v = [0.1, 0.2, 0.7, 1.3];
+        assert_eq!(mean(v.iter().copied()).to_bits(), (v.iter().sum::<f64>() / 4.0).to_bits());
+        assert!(mean([f64::INFINITY, 1.0].into_iter()).is_infinite());
+    }
 
     #[test]
     fn summary_of_known_rewards() {

@@ -129,17 +129,47 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std
     Ok(())
 }
 
-/// The bytes of `path`, refused before reading when the file is over `max_bytes`.
-pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> {
+/// `path` opened for reading, refused unless it is a regular file (after its links): a
+/// directory, a device such as `/dev/zero`, a socket or a FIFO is refused at once, without
+/// blocking on a FIFO's open or reading a device to exhaustion.
+pub fn open_regular(path: &Path, what: &str) -> Result<File> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
-    let size = std::fs::metadata(path).map_err(io)?.len();
-    if size > max_bytes {
-        return Err(Error::invalid(
-            what,
-            format!("{} has {size} bytes (at most {max_bytes} are read)", path.display()),
-        ));
+    let mut options = OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        // A FIFO's open would wait for a writer; a regular file ignores the flag.
+        options.custom_flags(libc::O_NONBLOCK);
     }
-    std::fs::read(path).map_err(io)
+    let file = options.open(path).map_err(io)?;
+    let meta = file.metadata().map_err(io)?;
+    if !meta.is_file() {
+        let kind = if meta.is_dir() { "a directory" } else { "not a regular file (a device, socket or pipe)" };
+        return Err(Error::invalid(what, format!("{} is {kind} (expected a file to read)", path.display())));
+    }
+    Ok(file)
+}
+
+/// The bytes of `path` (a regular file: [`open_regular`]), refused when it holds more than
+/// `max_bytes`: the read stops there, whatever size the file reports.
+pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let too_big = |size: String| {
+        Error::invalid(what, format!("{} has {size} bytes (at most {max_bytes} are read)", path.display()))
+    };
+    let file = open_regular(path, what)?;
+    let size = file.metadata().map_err(io)?.len();
+    if size > max_bytes {
+        return Err(too_big(size.to_string()));
+    }
+    let mut bytes = Vec::with_capacity(usize::try_from(size).unwrap_or(0));
+    file.take(max_bytes.saturating_add(1)).read_to_end(&mut bytes).map_err(io)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_big(format!("more than {max_bytes}")));
+    }
+    Ok(bytes)
 }
 
 #[cfg(test)]
@@ -249,6 +279,23 @@ mod tests {
         write_atomic(&dir.join("p.json"), |out| out.write_all(b"whole")).unwrap();
         assert!(!stale.exists(), "the dead writer's temporary of this target is removed");
         assert!(other.exists() && mine.exists(), "another target's and a live writer's stay");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_fifos_and_directories_are_refused_on_read_at_once() {
+        let dir = temp_dir("read-kinds");
+        let fifo = dir.join("fifo");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a valid C string; mkfifo only creates the node.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let link = dir.join("link-to-zero");
+        std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+        for path in [Path::new("/dev/zero"), link.as_path(), fifo.as_path(), dir.as_path()] {
+            let e = read_limited(path, 1 << 30, "policy file").unwrap_err().to_string();
+            assert!(e.contains("policy file") && e.contains(&path.display().to_string()), "{e}");
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -120,6 +120,31 @@ fn bad_arguments_are_named() {
     fails_with(&["optimize", "--samples", "many"], &["samples"]);
 }
 
+#[cfg(unix)]
+#[test]
+fn devices_and_fifos_are_refused_on_read_at_once() {
+    let fifo = temp("fifo");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: a valid C string; mkfifo only creates the node.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let f = fifo.to_str().unwrap();
+    // /dev/zero used to be read to exhaustion, a FIFO to block on its open.
+    for path in ["/dev/zero", f] {
+        fails_with(&["evaluate", path], &[path, "not a regular file"]);
+        fails_with(&["show", path], &[path, "not a regular file"]);
+        fails_with(&["optimize", "--pomdp", path], &[path, "not a regular file"]);
+        fails_with(&["qlearn-eval", "--ce-policy", path], &[path, "not a regular file"]);
+    }
+}
+
+#[test]
+fn a_discount_json_cannot_hold_is_refused_not_ignored() {
+    for d in ["nan", "inf", "-inf", "1e309"] {
+        let discount = format!("--discount={d}");
+        fails_with(&["optimize", "--pomdp", "../../data/pomdp/tiger.95.POMDP", &discount], &["--discount"]);
+    }
+}
+
 #[test]
 fn unwritable_outputs_are_refused_before_the_run() {
     let good = temp("p.json");

@@ -97,6 +97,24 @@ fn costs_are_negated_and_a_file_without_discount_counts_every_step() {
 }
 
 #[test]
+fn rewards_whose_episode_sum_overflows_are_refused_by_name() {
+    let path = std::env::temp_dir().join(format!("ceworld-huge-reward-{}.pomdp", std::process::id()));
+    let model = "discount: 0.95\nvalues: reward\nstates: 1\nactions: 1\nobservations: 1\nT: * identity\nO: * uniform\nR: * : * : * : * 1e308\n";
+    std::fs::write(&path, model).unwrap();
+    let file = path.to_str().unwrap();
+    // One step of 1e308 is a number; twenty (about 1 / (1 - 0.95)) are not.
+    assert!(PomdpWorld::from_file(file, 1, None).is_ok());
+    match PomdpWorld::from_file(file, 100, None) {
+        Err(Error::InvalidArgument { name, message }) => {
+            assert_eq!(name, "pomdp.file");
+            assert!(message.contains("1e308") && message.contains("100 steps"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
+    std::fs::remove_file(&path).unwrap();
+}
+
+#[test]
 fn the_registry_names_the_file_and_its_hash() {
     let world = tiger(7);
     let json = world.to_json();

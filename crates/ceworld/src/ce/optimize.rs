@@ -174,7 +174,7 @@ fn optimize_once<E: Episodes + ?Sized>(
         let record_of = |k: usize| &records[k * stride..k * stride + lengths[k] as usize * layout.record_width()];
         let counts = pool.install(|| count_elite(&policy, elite, &record_of, config.memory_update, chunk));
 
-        let mean = rewards.iter().sum::<f64>() / n as f64;
+        let mean = crate::evaluate::mean(rewards.iter().copied());
         let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
         if successful {
             best = Some((mean, iteration, policy.clone()));
@@ -191,7 +191,7 @@ fn optimize_once<E: Episodes + ?Sized>(
             mean,
             best: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
             elite_threshold: rewards[threshold],
-            elite_mean: elite.iter().map(|&k| rewards[k]).sum::<f64>() / elite_count as f64,
+            elite_mean: crate::evaluate::mean(elite.iter().map(|&k| rewards[k])),
             seconds: before + started.elapsed().as_secs_f64(),
             successful,
         };

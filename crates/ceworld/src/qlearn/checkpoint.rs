@@ -157,9 +157,8 @@ fn padding(len: usize) -> usize {
 
 /// Opens a Q-table file: its header, the offset of its values, and a reader positioned there.
 fn open_table(path: &Path) -> Result<(Value, u64, BufReader<File>)> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
     let bad = |message: String| Error::PolicyFormat { path: Some(path.to_path_buf()), message };
-    let mut reader = BufReader::with_capacity(8 << 20, File::open(path).map_err(io)?);
+    let mut reader = BufReader::with_capacity(8 << 20, crate::files::open_regular(path, "q table")?);
     let mut start = [0u8; 16];
     reader.read_exact(&mut start).map_err(|_| bad("not a cehmm Q table (shorter than its 16-byte prefix)".into()))?;
     if &start[..8] != MAGIC {

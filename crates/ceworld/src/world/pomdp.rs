@@ -20,8 +20,7 @@ use crate::rng::EngineRng;
 use crate::world::World;
 use crate::world::cassandra::{Options, Pomdp, Values, parse_bytes};
 
-/// Largest `.pomdp` file read (bytes), refused before reading.
-pub const MAX_FILE_BYTES: u64 = 256 << 20;
+pub use crate::world::cassandra::MAX_FILE_BYTES;
 /// Most `(s', o)` outcomes of positive probability over all `(s, a)` (memory guard).
 pub const MAX_OUTCOMES: usize = 1 << 26;
 
@@ -156,6 +155,24 @@ impl PomdpWorld {
         })?;
         let gamma = params.discount.or(pomdp.discount).unwrap_or(1.0);
         let tables = Arc::new(Tables::new(pomdp, gamma)?);
+        // An episode's value must stay a number: its rewards' largest discounted sum.
+        let largest = tables.reward.iter().chain(&tables.expected).fold(0.0, |m: f64, r| m.max(r.abs()));
+        let steps = if gamma < 1.0 {
+            (1.0 - gamma.powi(params.horizon.min(i32::MAX as usize) as i32)) / (1.0 - gamma)
+        } else {
+            params.horizon as f64
+        };
+        if !(largest * steps).is_finite() {
+            return Err(Error::invalid(
+                "pomdp.file",
+                format!(
+                    "{}: rewards up to {largest:e} over {} steps (discount {gamma}) sum past the largest number, {:e} (expected smaller rewards or a shorter horizon)",
+                    params.file,
+                    params.horizon,
+                    f64::MAX
+                ),
+            ));
+        }
         Ok(PomdpWorld { params: PomdpParams { sha256: Some(digest), ..params }, tables })
     }
 

@@ -211,6 +211,12 @@ pub(crate) fn world_from(args: &WorldArgs) -> Result<AnyWorld> {
             return Err(Error::invalid("--param", format!("{key} given twice")));
         }
     }
+    // JSON has no NaN or infinity: such a value would become null, and silently no discount.
+    if let Some(d) = args.discount
+        && !d.is_finite()
+    {
+        return Err(Error::invalid("--discount", format!("{d} (expected 0 < discount <= 1)")));
+    }
     let options: [(&str, &str, Option<Value>); 4] = [
         ("--case", "case", args.case.map(Value::from)),
         ("--pomdp", "file", args.pomdp.as_ref().map(|p| Value::from(p.display().to_string()))),

@@ -24,6 +24,7 @@ use crate::ce::stopping::StopReason;
 use crate::control::{Flow, thread_pool};
 use crate::episodes::{Episodes, Streams};
 use crate::error::Result;
+use crate::evaluate::mean;
 use crate::evaluate::{Evaluation, evaluate};
 pub use crate::policy::controller::Controller;
 use crate::policy::file::PolicyFile;
@@ -265,7 +266,7 @@ impl Search<'_> {
                 let mut values = vec![0.0; samples * k];
                 let streams = Streams { seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
                 world.run_controllers(&controllers, streams, k, &mut values)?;
-                let means = values.chunks(k).map(|v| v.iter().sum::<f64>() / k as f64);
+                let means = values.chunks(k).map(|v| mean(v.iter().copied()));
                 Ok(means.zip(controllers).map(Some).collect())
             }
         })
@@ -279,7 +280,7 @@ impl Search<'_> {
         let mut values = vec![0.0; controllers.len() * m];
         let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
         self.pool.install(|| world.run_controllers(controllers, streams, m, &mut values))?;
-        Ok(values.chunks(m).map(|v| v.iter().sum::<f64>() / m as f64).collect())
+        Ok(values.chunks(m).map(|v| mean(v.iter().copied())).collect())
     }
 
     /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
@@ -415,10 +416,10 @@ impl Search<'_> {
                     restart,
                     record: IterationRecord {
                         iteration,
-                        mean: drawn.iter().map(|d| d.0).sum::<f64>() / drawn.len() as f64,
+                        mean: mean(drawn.iter().map(|d| d.0)),
                         best: drawn[top].0,
                         elite_threshold: threshold,
-                        elite_mean: order[..kept].iter().map(|&i| drawn[i].0).sum::<f64>() / kept as f64,
+                        elite_mean: mean(order[..kept].iter().map(|&i| drawn[i].0)),
                         seconds: saver.seconds(),
                         successful: progress,
                     },

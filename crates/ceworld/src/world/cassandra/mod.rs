@@ -45,4 +45,4 @@ mod validate;
 
 pub use error::ParseError;
 pub use model::{Options, Pomdp, RewardEntry, Values};
-pub use parse::{parse, parse_bytes, parse_file};
+pub use parse::{MAX_FILE_BYTES, parse, parse_bytes, parse_file};

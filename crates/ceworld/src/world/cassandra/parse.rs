@@ -33,13 +33,16 @@ pub fn parse_bytes(bytes: &[u8], options: &Options) -> Result<Pomdp> {
     Parser::new(tokenize(bytes), options).run()
 }
 
+/// Largest `.pomdp` file read (bytes); the read stops there.
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
 /// Reads and parses a `.pomdp` file; errors carry the file name.
 ///
 /// # Errors
 /// A [`ParseError`] if the file cannot be read (line and column 0) or parsed.
 pub fn parse_file(path: &Path, options: &Options) -> Result<Pomdp> {
     let file = Some(path.display().to_string());
-    let bytes = std::fs::read(path).map_err(|e| ParseError {
+    let bytes = crate::files::read_limited(path, MAX_FILE_BYTES, "pomdp file").map_err(|e| ParseError {
         file: file.clone(),
         line: 0,
         column: 0,
