@@ -55,7 +55,7 @@ pub fn raise(error: Error) -> PyErr {
     match error {
         Error::InvalidArgument { .. } => InvalidArgumentError::new_err(message),
         Error::WrongType { .. } => PyTypeError::new_err(message),
-        Error::PolicyFormat { .. } => PolicyFormatError::new_err(message),
+        Error::PolicyFormat { .. } | Error::CheckpointFormat { .. } => PolicyFormatError::new_err(message),
         Error::Mismatch(_) | Error::CheckpointMismatch(_) => PolicyMismatchError::new_err(message),
         Error::ModelFormat(_) => ModelFormatError::new_err(message),
         Error::Internal(_) => InternalError::new_err(message),

@@ -38,6 +38,15 @@ pub enum Error {
         /// What is wrong, naming the key and the expected value.
         message: String,
     },
+    /// A checkpoint file that is not one, or whose state is not consistent (a history that does
+    /// not match its counters, a best that is not in its history, a run index past the runs).
+    #[error("invalid checkpoint {}: {message}", path.display())]
+    CheckpointFormat {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// A model file (a Cassandra `.pomdp` file) that cannot be read as one; the message names
     /// the file, the line and column, what was found and what was expected.
     #[error("invalid model file {0}")]

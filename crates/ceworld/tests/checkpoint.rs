@@ -145,3 +145,64 @@ fn a_checkpoint_of_other_settings_or_another_world_is_refused() {
         optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&bad), |_| Flow::Continue).unwrap_err();
     assert!(matches!(&e, Error::InvalidArgument { name, .. } if name == "checkpoint_every"), "{e}");
 }
+
+/// A change made to a checkpoint's JSON.
+type Edit = fn(&mut serde_json::Value);
+
+/// A checkpoint stopped in the second of two runs, as JSON.
+fn stopped_in_the_second_run(path: &std::path::Path) -> serde_json::Value {
+    let w = world();
+    let config = CeConfig { restarts: 2, max_iterations: Some(5), ..config() };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let mut seen = 0;
+    let out = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {
+        seen += 1;
+        if seen == 8 { Flow::Stop } else { Flow::Continue }
+    })
+    .unwrap();
+    assert!(out.interrupted());
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_tampered_checkpoint_is_refused_by_what_is_inconsistent() {
+    let path = temp("tampered.ckpt");
+    let saved = stopped_in_the_second_run(&path);
+    assert_eq!((saved["restart"].as_u64(), saved["run"]["history"].as_array().map(Vec::len)), (Some(1), Some(3)));
+    let w = world();
+    let config = CeConfig { restarts: 2, max_iterations: Some(5), ..config() };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let edits: [(&str, Edit, &str); 8] = [
+        ("the run index", |c| c["restart"] = 5.into(), "run 5"),
+        ("a finished run dropped", |c| c["finished"] = serde_json::json!([]), "runs finished"),
+        ("an iteration dropped", |c| drop(c["run"]["history"].as_array_mut().unwrap().remove(0)), "iteration"),
+        ("the best iteration", |c| c["run"]["best"]["iteration"] = 99.into(), "best iteration 99"),
+        ("the unsuccessful count", |c| c["run"]["unsuccessful"] = 50.into(), "50 unsuccessful"),
+        ("a success flag", |c| c["run"]["history"][0]["successful"] = false.into(), "marked successful"),
+        ("the seconds", |c| c["seconds"] = (-1.0).into(), "seconds -1"),
+        ("a finished run's best", |c| c["finished"][0]["result"]["best_iteration"] = 77.into(), "best iteration 77"),
+    ];
+    for (what, edit, needle) in edits {
+        let mut c = saved.clone();
+        edit(&mut c);
+        std::fs::write(&*path, serde_json::to_vec(&c).unwrap()).unwrap();
+        match optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {
+            Flow::Continue
+        }) {
+            Err(Error::CheckpointFormat { message, .. }) => assert!(message.contains(needle), "{what}: {message}"),
+            other => panic!("{what}: {other:?}"),
+        }
+    }
+    // The runs yet to start would start from another policy: refused.
+    std::fs::write(&*path, serde_json::to_vec(&saved).unwrap()).unwrap();
+    let other = random_policy(&w, &[4, 3], 2).unwrap();
+    match optimize_with(&w, other, &config, Some(&checkpointing), |_| Flow::Continue) {
+        Err(Error::CheckpointMismatch(message)) => assert!(message.contains("initial policy"), "{message}"),
+        other => panic!("another initial policy: {other:?}"),
+    }
+    // The file as saved still resumes.
+    assert!(
+        optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| Flow::Continue)
+            .is_ok()
+    );
+}

@@ -96,7 +96,11 @@ fn fuzz(name: &str, good: &[u8], reach: usize, read: impl Fn(&Path) -> Result<()
         let outcome = catch_unwind(AssertUnwindSafe(|| read(&path)));
         match outcome.unwrap_or_else(|_| panic!("{name}: case {case} panicked")) {
             Ok(()) => read_ok += 1,
-            Err(Error::PolicyFormat { .. } | Error::Mismatch(_) | Error::Memory { .. }) => refused += 1,
+            Err(
+                Error::PolicyFormat { .. } | Error::CheckpointFormat { .. } | Error::Mismatch(_) | Error::Memory { .. },
+            ) => {
+                refused += 1;
+            }
             Err(e) => panic!("{name}: case {case}: unexpected error kind: {e}"),
         }
     }

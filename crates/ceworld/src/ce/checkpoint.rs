@@ -6,7 +6,7 @@
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::ce::config::CeConfig;
-use crate::ce::record::{CeResult, IterationRecord};
+use crate::ce::record::{CeResult, IterationRecord, check_history, trailing_unsuccessful};
 use crate::ce::resume::{Checkpoint, Resumable};
 use crate::policy::Hhmm;
 
@@ -50,6 +50,46 @@ impl Resumable for CeRun {
     type Config = CeConfig;
     type Run = RunState;
     type Finished = FinishedRun;
+
+    fn restarts(config: &CeConfig) -> usize {
+        config.restarts
+    }
+
+    fn check_run(_: &CeConfig, run: &RunState) -> Option<String> {
+        let h = &run.history;
+        if let Some(what) = check_history(h) {
+            return Some(what);
+        }
+        // An iteration is successful when its mean beats every earlier one's (model §3).
+        let mut top = f64::NEG_INFINITY;
+        for r in h {
+            if r.successful != (r.mean > top) {
+                return Some(format!(
+                    "iteration {} marked successful {} (its mean {} against {top})",
+                    r.iteration, r.successful, r.mean
+                ));
+            }
+            top = top.max(r.mean);
+        }
+        match &run.best {
+            None if !h.is_empty() => return Some("no best iteration after iterations".into()),
+            Some((mean, i, _)) if h.get(*i).is_none_or(|r| r.mean != *mean || *mean != top) => {
+                return Some(format!("best iteration {i} with mean {mean} (not the best of its history)"));
+            }
+            _ => {}
+        }
+        (run.unsuccessful != trailing_unsuccessful(h)).then(|| {
+            format!("{} unsuccessful iterations (its history ends with {})", run.unsuccessful, trailing_unsuccessful(h))
+        })
+    }
+
+    fn check_finished(_: &CeConfig, finished: &FinishedRun) -> Option<String> {
+        let r = &finished.result;
+        check_history(&r.history).or_else(|| {
+            (r.best_iteration >= r.history.len())
+                .then(|| format!("best iteration {} of {}", r.best_iteration, r.history.len()))
+        })
+    }
 
     fn non_finite(run: Option<&RunState>, finished: &[FinishedRun]) -> Option<String> {
         let records = run.iter().flat_map(|r| &r.history).chain(finished.iter().flat_map(|f| &f.result.history));

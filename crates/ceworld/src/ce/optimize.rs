@@ -51,7 +51,9 @@ pub fn optimize_with<E: Episodes + ?Sized>(
 ) -> Result<CeResult> {
     config.validate()?;
     check_fits(world, &initial)?;
-    let mut saver = Saver::<CeRun>::new(world, config, checkpointing)?;
+    // The initial policy's digest: a resumed run must start its later runs from the same one.
+    let start = Some(digest(&initial));
+    let mut saver = Saver::<CeRun>::new(world, config, checkpointing, start)?;
     if let Some(run) = &saver.state.run
         && run.policy.levels() != initial.levels()
     {
@@ -104,6 +106,24 @@ pub fn optimize_with<E: Episodes + ?Sized>(
     result.seconds = saver.seconds();
     result.restart_scores = scores;
     Ok(result)
+}
+
+/// The SHA-256 of a policy's sizes and table entries (their bits), in hex.
+fn digest(policy: &Hhmm) -> String {
+    use sha2::{Digest, Sha256};
+    let layout = policy.layout();
+    let mut h = Sha256::new();
+    for size in [layout.n_obs, layout.n_actions].iter().chain(&layout.levels) {
+        h.update((*size as u64).to_le_bytes());
+    }
+    for p in policy.probs() {
+        h.update(p.to_bits().to_le_bytes());
+    }
+    h.finalize().iter().fold(String::with_capacity(64), |mut hex, b| {
+        use std::fmt::Write;
+        let _ = write!(hex, "{b:02x}");
+        hex
+    })
 }
 
 /// One run of [`optimize_with`] (its `restarts` is ignored), from `initial` or from the saved

@@ -46,6 +46,27 @@ impl IterationRecord {
     }
 }
 
+/// What is inconsistent in a run's records, if anything: iterations numbered from 0 in order,
+/// seconds finite and never decreasing.
+pub fn check_history(history: &[IterationRecord]) -> Option<String> {
+    let mut last = 0.0;
+    for (i, r) in history.iter().enumerate() {
+        if r.iteration != i {
+            return Some(format!("record {i} is iteration {} (expected {i})", r.iteration));
+        }
+        if !(r.seconds.is_finite() && r.seconds >= last) {
+            return Some(format!("iteration {i}'s seconds {} (expected at least {last})", r.seconds));
+        }
+        last = r.seconds;
+    }
+    None
+}
+
+/// The iterations since the last successful one, at the end of `history`.
+pub fn trailing_unsuccessful(history: &[IterationRecord]) -> usize {
+    history.iter().rev().take_while(|r| !r.successful).count()
+}
+
 /// The outcome of an optimisation.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CeResult {

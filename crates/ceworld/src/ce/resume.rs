@@ -77,6 +77,13 @@ pub trait Resumable {
             })
             .collect()
     }
+    /// The runs the settings ask for.
+    fn restarts(config: &Self::Config) -> usize;
+    /// What is inconsistent in the state of the run in progress (its history against its
+    /// counters, its best against its history), if anything.
+    fn check_run(config: &Self::Config, run: &Self::Run) -> Option<String>;
+    /// What is inconsistent in a finished run, if anything.
+    fn check_finished(config: &Self::Config, finished: &Self::Finished) -> Option<String>;
     /// The first number of the state that JSON cannot hold exactly, if any.
     fn non_finite(run: Option<&Self::Run>, finished: &[Self::Finished]) -> Option<String>;
 }
@@ -103,11 +110,16 @@ pub struct Checkpoint<K: Resumable> {
     pub seconds: f64,
     /// The engine that wrote it.
     pub engine_version: String,
+    /// What the runs start from, when the settings do not say it (episode CE: the SHA-256 of
+    /// the initial policy, so that another `--init`, `--random-init` or `--clock-init` is
+    /// refused on resume).
+    #[serde(default)]
+    pub start: Option<String>,
 }
 
 impl<K: Resumable> Checkpoint<K> {
     /// The state of an optimisation that has not started.
-    pub fn fresh(world: Value, config: &K::Config) -> Checkpoint<K> {
+    pub fn fresh(world: Value, config: &K::Config, start: Option<String>) -> Checkpoint<K> {
         Checkpoint {
             format: K::FORMAT.into(),
             version: K::VERSION,
@@ -118,6 +130,7 @@ impl<K: Resumable> Checkpoint<K> {
             run: None,
             seconds: 0.0,
             engine_version: crate::VERSION.into(),
+            start,
         }
     }
 
@@ -132,7 +145,7 @@ impl<K: Resumable> Checkpoint<K> {
     /// Reads a checkpoint saved by [`Checkpoint::save`].
     pub fn load(path: &Path) -> Result<Checkpoint<K>> {
         let bytes = crate::files::read_limited(path, MAX_CHECKPOINT_BYTES, "checkpoint")?;
-        let bad = |message: String| Error::PolicyFormat { path: Some(path.to_path_buf()), message };
+        let bad = |message: String| Error::CheckpointFormat { path: path.to_path_buf(), message };
         let doc: Value =
             serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a checkpoint: invalid JSON ({e})")))?;
         match doc.get("format").and_then(Value::as_str) {
@@ -143,7 +156,36 @@ impl<K: Resumable> Checkpoint<K> {
             Some(v) if v == K::VERSION => {}
             other => return Err(bad(format!("checkpoint version {other:?} (expected {})", K::VERSION))),
         }
-        serde_json::from_value(doc).map_err(|e| bad(format!("invalid checkpoint: {e}")))
+        let checkpoint: Checkpoint<K> = serde_json::from_value(doc).map_err(|e| bad(e.to_string()))?;
+        checkpoint.check_consistent().map_err(bad)?;
+        Ok(checkpoint)
+    }
+
+    /// Refuses a state that no run could have saved (a tampered or corrupted file).
+    fn check_consistent(&self) -> std::result::Result<(), String> {
+        let restarts = K::restarts(&self.config);
+        if self.finished.len() != self.restart {
+            return Err(format!(
+                "run {} with {} runs finished (expected as many as the run index)",
+                self.restart,
+                self.finished.len()
+            ));
+        }
+        if self.restart > restarts || (self.restart == restarts && self.run.is_some()) {
+            return Err(format!("run {} of {restarts} runs", self.restart));
+        }
+        if !(self.seconds.is_finite() && self.seconds >= 0.0) {
+            return Err(format!("seconds {} (expected a finite number >= 0)", self.seconds));
+        }
+        for (i, f) in self.finished.iter().enumerate() {
+            if let Some(what) = K::check_finished(&self.config, f) {
+                return Err(format!("finished run {i}: {what}"));
+            }
+        }
+        match self.run.as_ref().and_then(|r| K::check_run(&self.config, r)) {
+            Some(what) => Err(format!("run {}: {what}", self.restart)),
+            None => Ok(()),
+        }
     }
 
     /// Refuses a checkpoint of another world or other settings (those that shape the run).
@@ -182,6 +224,7 @@ impl<'a, K: Resumable> Saver<'a, K> {
         world: &E,
         config: &K::Config,
         checkpointing: Option<&'a Checkpointing>,
+        start: Option<String>,
     ) -> Result<Saver<'a, K>> {
         let world_json = world.description();
         let state = match checkpointing {
@@ -199,7 +242,17 @@ impl<'a, K: Resumable> Saver<'a, K> {
             }
             None => None,
         };
-        let state = state.unwrap_or_else(|| Checkpoint::fresh(world_json, config));
+        if let Some(saved) = &state
+            && saved.start.is_some()
+            && saved.start != start
+        {
+            return Err(Error::CheckpointMismatch(
+                "the checkpoint's runs start from another initial policy (another --init, --random-init, \
+                 --clock-init or levels): resume from the same one, or start afresh"
+                    .into(),
+            ));
+        }
+        let state = state.unwrap_or_else(|| Checkpoint::fresh(world_json, config, start));
         let now = Instant::now();
         Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now })
     }

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::ce::controller::ControllerIteration;
 use crate::ce::controller::config::{ControllerConfig, ValueKind};
 use crate::ce::controller::laws::Laws;
+use crate::ce::record::{IterationRecord, check_history};
 use crate::ce::resume::{Checkpoint, Resumable};
 use crate::ce::stopping::StopReason;
 use crate::policy::controller::Controller;
@@ -50,6 +51,18 @@ pub struct FinishedSearch {
     pub stop: StopReason,
 }
 
+/// What is inconsistent in one run's records, if anything (every record of the same run).
+fn check_records(history: &[ControllerIteration]) -> Option<String> {
+    let records: Vec<IterationRecord> = history.iter().map(|r| r.record.clone()).collect();
+    check_history(&records).or_else(|| {
+        let first = history.first().map(|r| r.restart);
+        history
+            .iter()
+            .find(|r| Some(r.restart) != first)
+            .map(|r| format!("records of runs {:?} and {} in one run", first, r.restart))
+    })
+}
+
 /// What a checkpoint records of a search's settings: the settings and how values are known.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SearchSettings {
@@ -75,6 +88,61 @@ impl Resumable for ControllerSearch {
     type Config = SearchSettings;
     type Run = SearchState;
     type Finished = FinishedSearch;
+
+    fn restarts(settings: &SearchSettings) -> usize {
+        settings.config.restarts
+    }
+
+    fn check_run(settings: &SearchSettings, run: &SearchState) -> Option<String> {
+        let c = &settings.config;
+        if let Some(what) = check_records(&run.history) {
+            return Some(what);
+        }
+        let (injected, grown) =
+            (run.history.iter().filter(|r| r.injected).count(), run.history.iter().filter(|r| r.grown).count());
+        if (run.injections, run.growths) != (injected, grown)
+            || run.injections > c.injections
+            || run.growths > c.growths
+        {
+            return Some(format!(
+                "{} injections and {} growths (its history has {injected} and {grown}; at most {} and {})",
+                run.injections, run.growths, c.injections, c.growths
+            ));
+        }
+        match &run.best {
+            None if !run.history.is_empty() => Some("no best controller after iterations".into()),
+            Some((value, controller, i)) => {
+                if run.history.get(*i).is_none_or(|r| r.best_so_far != *value)
+                    || run.history.last().is_some_and(|r| r.best_so_far != *value)
+                {
+                    Some(format!("best controller of iteration {i} with value {value} (not its history's best so far)"))
+                } else if controller.nodes() > c.nodes + run.growths {
+                    Some(format!(
+                        "a best controller of {} nodes (at most {})",
+                        controller.nodes(),
+                        c.nodes + run.growths
+                    ))
+                } else {
+                    None
+                }
+            }
+            None => None,
+        }
+        .or_else(|| {
+            (run.since_progress > run.history.len())
+                .then(|| format!("{} iterations without progress of {}", run.since_progress, run.history.len()))
+        })
+    }
+
+    fn check_finished(_: &SearchSettings, finished: &FinishedSearch) -> Option<String> {
+        check_records(&finished.history).or_else(|| match finished.history.get(finished.best_iteration) {
+            Some(r) if r.best_so_far == finished.value => None,
+            _ => Some(format!(
+                "best iteration {} with value {} (not in its history)",
+                finished.best_iteration, finished.value
+            )),
+        })
+    }
 
     fn non_finite(run: Option<&SearchState>, finished: &[FinishedSearch]) -> Option<String> {
         let records = run.iter().flat_map(|r| &r.history).chain(finished.iter().flat_map(|f| &f.history));

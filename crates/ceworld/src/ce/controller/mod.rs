@@ -158,7 +158,7 @@ pub fn optimize_controller_with(
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
     }
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
-    let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing)?;
+    let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing, None)?;
     if let Some(run) = &saver.state.run
         && (run.laws.nodes() != config.nodes + run.growths || run.laws.shape() != (n_actions, y1))
     {
