@@ -260,3 +260,49 @@ def test_episodes_worth_1e308_keep_a_finite_mean_and_their_checkpoint(tmp_path) 
         **huge,
     )
     assert math.isfinite(controller.value) and np.all(np.isfinite(controller.history["mean"]))
+
+
+class FlagWorld:
+    """Corridor's shape; `step` returns `flag` as its done (episode protocol)."""
+
+    n_observations, n_decisions, horizon = 6, 2, 4
+
+    def __init__(self, flag: object) -> None:
+        self.flag = flag
+
+    def reset(self, seed: int) -> int:
+        return 0
+
+    def step(self, decision: int) -> tuple[int, float, object]:
+        return 0, 0.0, self.flag
+
+
+class FlagBatch:
+    """The same, batched: `flags(n)` is the done column."""
+
+    batched = True
+    n_observations, n_decisions, horizon = 6, 2, 4
+
+    def __init__(self, flags: object) -> None:
+        self.flags = flags
+
+    def reset(self, n: int, seed: int) -> np.ndarray:
+        self.n = n
+        return np.zeros(n, dtype=np.int64)
+
+    def step(self, decisions: np.ndarray) -> tuple[np.ndarray, np.ndarray, object]:
+        return np.zeros(self.n, dtype=np.int64), np.zeros(self.n), self.flags(self.n)  # type: ignore[operator]
+
+
+def test_done_flags_are_bools_not_truthiness() -> None:
+    policy = cehmm.Policy.uniform(FlagWorld(False), [1])
+    for good in [False, np.bool_(True), 0, 1]:
+        policy.evaluate(FlagWorld(good), episodes=3, seed=0)
+    for bad in ["False", float("nan"), 0.5, 2, (x for x in []), None]:
+        with pytest.raises(cehmm.WorldError, match="done"):
+            policy.evaluate(FlagWorld(bad), episodes=3, seed=0)
+    for good in [lambda n: np.zeros(n, dtype=bool), lambda n: np.ones(n, dtype=np.int64)]:
+        policy.evaluate(FlagBatch(good), episodes=3, seed=0)
+    for bad in [lambda n: np.full(n, 0.5), lambda n: np.full(n, 2), lambda n: np.array(["False"] * n)]:
+        with pytest.raises(cehmm.WorldError, match="done"):
+            policy.evaluate(FlagBatch(bad), episodes=3, seed=0)

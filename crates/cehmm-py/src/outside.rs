@@ -132,6 +132,39 @@ fn scalar_int(value: &Bound<'_, PyAny>) -> Option<i64> {
     value.extract::<i64>().ok()
 }
 
+/// A flag (`done`, `terminated`, `truncated`): a bool, numpy's too, or the int 0 or 1; not a
+/// string, a float or any other object whose truthiness would be taken.
+fn scalar_flag(value: &Bound<'_, PyAny>) -> Option<bool> {
+    if value.is_instance_of::<pyo3::types::PyBool>() {
+        return value.extract::<bool>().ok();
+    }
+    let type_name = value.get_type().name().map(|n| n.to_string()).unwrap_or_default();
+    if type_name == "bool" || type_name == "bool_" {
+        return value.extract::<bool>().ok();
+    }
+    match scalar_int(value) {
+        Some(0) => Some(false),
+        Some(1) => Some(true),
+        _ => None,
+    }
+}
+
+/// Flags of a batch into `out`: an array of bools, or of the ints 0 and 1.
+fn batch_flags(py: Python<'_>, what: &str, value: &Bound<'_, PyAny>, out: &mut [bool]) -> Result<(), String> {
+    let expected = || format!("{what} {} (expected bools, or the ints 0 and 1)", short(value));
+    if let Ok(a) = array(py, value, "bool", "safe") {
+        return copy(what, &a, out);
+    }
+    let ints = array(py, value, "int64", "same_kind").map_err(|_| expected())?;
+    let mut values = vec![0i64; out.len()];
+    copy(what, &ints, &mut values)?;
+    if values.iter().any(|&v| v != 0 && v != 1) {
+        return Err(expected());
+    }
+    out.iter_mut().zip(values).for_each(|(o, v)| *o = v == 1);
+    Ok(())
+}
+
 fn short(value: &Bound<'_, PyAny>) -> String {
     let text = crate::convert::shown(value);
     if text.chars().count() > 60 { format!("{}…", text.chars().take(60).collect::<String>()) } else { text }
@@ -229,7 +262,7 @@ impl BatchWorld for PyBatch {
                 };
                 out.observations[0] = scalar_int(&obs).ok_or_else(|| bad("observation", &obs, "an int"))?;
                 out.rewards[0] = reward.extract::<f64>().map_err(|_| bad("reward", &reward, "a number"))?;
-                let flag = |v: &Bound<'_, PyAny>| v.is_truthy().map_err(|_| bad("done", v, "a bool"));
+                let flag = |v: &Bound<'_, PyAny>| scalar_flag(v).ok_or_else(|| bad("done", v, "a bool"));
                 out.done[0] = flag(&terminated)? || truncated.as_ref().map(flag).transpose()?.unwrap_or(false);
                 return Ok(());
             }
@@ -238,8 +271,7 @@ impl BatchWorld for PyBatch {
                 .map_err(|_| Error::World(format!("step returned reward {} (expected numbers)", short(&reward))))?;
             copy("step returned rewards", &rewards, out.rewards).map_err(Error::World)?;
             let flags = |v: &Bound<'_, PyAny>, out: &mut [bool]| -> ceworld::Result<()> {
-                let a = array(py, v, "bool", "unsafe").map_err(|e| Error::World(e.to_string()))?;
-                copy("step returned done", &a, out).map_err(Error::World)
+                batch_flags(py, "step returned done", v, out).map_err(Error::World)
             };
             flags(&terminated, out.done)?;
             if let Some(truncated) = truncated {

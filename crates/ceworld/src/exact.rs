@@ -163,6 +163,9 @@ fn recurse(world: &PomdpWorld, policy: &Hhmm, steps: Option<usize>, tolerance: f
 /// The expected reward of an episode of `horizon` steps (the world's own when `None`).
 pub fn finite_horizon(world: &PomdpWorld, policy: &Hhmm, horizon: Option<usize>) -> Result<ExactValue> {
     use crate::world::World;
+    if horizon == Some(0) {
+        return Err(Error::invalid("horizon", "0 (expected at least 1 step)"));
+    }
     recurse(world, policy, Some(horizon.unwrap_or_else(|| world.horizon())), 0.0)
 }
 
@@ -175,8 +178,8 @@ pub fn infinite_horizon(world: &PomdpWorld, policy: &Hhmm, tolerance: f64) -> Re
             format!("{gamma} (the infinite-horizon value needs a discount below 1)"),
         ));
     }
-    if tolerance.is_nan() || tolerance <= 0.0 {
-        return Err(Error::invalid("tolerance", format!("{tolerance} (expected a positive number)")));
+    if !(tolerance.is_finite() && tolerance > 0.0) {
+        return Err(Error::invalid("tolerance", format!("{tolerance} (expected a positive finite number)")));
     }
     recurse(world, policy, None, tolerance)
 }

@@ -97,6 +97,23 @@ fn costs_are_negated_and_a_file_without_discount_counts_every_step() {
 }
 
 #[test]
+fn an_exact_value_of_no_steps_or_an_infinite_tolerance_is_refused() {
+    let world = tiger(10);
+    let policy = random_policy(&world, &[2], 0).unwrap();
+    for tolerance in [f64::INFINITY, f64::NAN, 0.0, -1.0] {
+        match infinite_horizon(&world, &policy, tolerance) {
+            Err(Error::InvalidArgument { name, .. }) => assert_eq!(name, "tolerance"),
+            other => panic!("{tolerance}: {other:?}"),
+        }
+    }
+    match finite_horizon(&world, &policy, Some(0)) {
+        Err(Error::InvalidArgument { name, .. }) => assert_eq!(name, "horizon"),
+        other => panic!("{other:?}"),
+    }
+    assert!(finite_horizon(&world, &policy, Some(1)).is_ok());
+}
+
+#[test]
 fn rewards_whose_episode_sum_overflows_are_refused_by_name() {
     let path = std::env::temp_dir().join(format!("ceworld-huge-reward-{}.pomdp", std::process::id()));
     let model = "discount: 0.95\nvalues: reward\nstates: 1\nactions: 1\nobservations: 1\nT: * identity\nO: * uniform\nR: * : * : * : * 1e308\n";
