@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import os
+import resource
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -157,3 +160,25 @@ def test_devices_and_fifos_are_refused_on_read_at_once(tmp_path: Path) -> None:
             cehmm.Policy.load(path)
         with pytest.raises(cehmm.InvalidArgumentError, match="not a regular file"):
             cehmm.PomdpWorld.from_file(path)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_AS as Linux has it")
+def test_a_model_too_large_for_the_process_limits_is_refused_not_an_abort(tmp_path: Path) -> None:
+    # 58 bytes, 2^28 actions: 16 GiB of tables. Under a 3 GB address-space limit the allocation
+    # used to abort the interpreter; it is refused by name before it is made.
+    model = tmp_path / "huge.pomdp"
+    model.write_text("states: 1\nactions: 268435456\nobservations: 1\nO: * uniform\n")
+    code = (
+        "import cehmm, sys\n"
+        "try:\n"
+        f"    cehmm.PomdpWorld.from_file({str(model)!r})\n"
+        "except cehmm.ModelFormatError as e:\n"
+        "    print(e); sys.exit(3)\n"
+    )
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, preexec_fn=limit, timeout=120)
+    assert out.returncode == 3, out.stderr
+    assert "the tables T and O" in out.stdout and "needs" in out.stdout

@@ -58,7 +58,7 @@ pub enum Error {
     World(String),
     /// A table (the Q-learning baseline's) that would not fit in the memory the system reports
     /// available; refused before allocating.
-    #[error("{what} needs {needed} bytes ({:.2} GiB) but only {available} bytes ({:.2} GiB) are available (MemAvailable in /proc/meminfo, or the cgroup limit)", *needed as f64 / (1u64 << 30) as f64, *available as f64 / (1u64 << 30) as f64)]
+    #[error("{what} needs {needed} bytes ({:.2} GiB) but only {available} bytes ({:.2} GiB) are available (the least of MemAvailable in /proc/meminfo, the cgroup limit and the process limits: ulimit -v, RLIMIT_AS, RLIMIT_DATA)", *needed as f64 / (1u64 << 30) as f64, *available as f64 / (1u64 << 30) as f64)]
     Memory {
         /// What was to be allocated.
         what: String,

@@ -137,6 +137,33 @@ fn devices_and_fifos_are_refused_on_read_at_once() {
     }
 }
 
+#[cfg(target_os = "linux")]
+#[test]
+fn the_memory_guard_obeys_the_process_limits() {
+    // 5,000,000 episodes of 100 steps need about 2.9 GiB: more than `ulimit -v` leaves (this
+    // machine has more), so the run is refused at once instead of aborting in an allocation.
+    let command = format!(
+        "ulimit -v 3000000 && exec timeout 60 {} optimize --case 3 --levels 16 --samples 5000000 --max-iterations 1 -q",
+        env!("CARGO_BIN_EXE_ceworld")
+    );
+    let out = Command::new("sh").args(["-c", &command]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("needs") && stderr.contains("ulimit -v"), "{stderr}");
+    // A 58-byte model of 2^28 actions: its tables (16 GiB) are refused before they are made.
+    let model = temp("huge.pomdp");
+    std::fs::write(&*model, "states: 1\nactions: 268435456\nobservations: 1\nO: * uniform\n").unwrap();
+    let command = format!(
+        "ulimit -v 3000000 && exec timeout 60 {} optimize --pomdp {} -q",
+        env!("CARGO_BIN_EXE_ceworld"),
+        model.display()
+    );
+    let out = Command::new("sh").args(["-c", &command]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("the tables T and O") && stderr.contains("needs"), "{stderr}");
+}
+
 #[test]
 fn a_discount_json_cannot_hold_is_refused_not_ignored() {
     for d in ["nan", "inf", "-inf", "1e309"] {

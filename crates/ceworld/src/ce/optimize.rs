@@ -16,7 +16,7 @@ use crate::control::{Flow, thread_pool};
 use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::{check_fits, evaluate, selection_mean};
-use crate::policy::Hhmm;
+use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream_key};
 
 /// The elite's counts: integers when the memory is counted as sampled, reals when re-inferred.
@@ -64,6 +64,8 @@ pub fn optimize_with<E: Episodes + ?Sized>(
         )));
     }
     let pool = thread_pool(config.threads)?;
+    // Before any copy of the tables: the run must fit in the memory this process may use.
+    check_size(world, initial.layout(), config, pool.current_num_threads())?;
     let mut interrupted = None;
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
@@ -108,6 +110,22 @@ pub fn optimize_with<E: Episodes + ?Sized>(
     Ok(result)
 }
 
+/// Refuses, before anything is allocated, a run whose iteration or memory would not fit.
+fn check_size<E: Episodes + ?Sized>(world: &E, layout: &Layout, config: &CeConfig, threads: usize) -> Result<()> {
+    let horizon = world.shape().horizon;
+    let (n, elite_count) = (config.samples, config.elite_count());
+    check_iteration_size(n, elite_count, horizon, horizon * layout.record_width())?;
+    let size = RunSize {
+        samples: n,
+        elite: elite_count,
+        horizon,
+        eval_episodes: config.eval_episodes,
+        forward_backward: config.memory_update == MemoryUpdate::ForwardBackward,
+        threads,
+    };
+    check_run_memory(layout, &size)
+}
+
 /// The SHA-256 of a policy's sizes and table entries (their bits), in hex.
 fn digest(policy: &Hhmm) -> String {
     use sha2::{Digest, Sha256};
@@ -144,16 +162,6 @@ fn optimize_once<E: Episodes + ?Sized>(
     let horizon = world.shape().horizon;
     let stride = horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
-    check_iteration_size(n, elite_count, horizon, stride)?;
-    let size = RunSize {
-        samples: n,
-        elite: elite_count,
-        horizon,
-        eval_episodes: config.eval_episodes,
-        forward_backward: config.memory_update == MemoryUpdate::ForwardBackward,
-        threads: pool.current_num_threads(),
-    };
-    check_run_memory(&layout, &size)?;
     let started = Instant::now();
     let RunState { mut policy, mut history, mut best, mut unsuccessful } =
         resume.unwrap_or(RunState { policy: initial, history: Vec::new(), best: None, unsuccessful: 0 });

@@ -344,6 +344,15 @@ impl<'a> Parser<'a> {
                 ));
             }
         }
+        // Both dense tables and their rows' positions, against the memory this process may use.
+        let entries = t_size.unwrap_or(usize::MAX).saturating_add(o_size.unwrap_or(usize::MAX));
+        let rows = na.saturating_mul(ns).saturating_mul(2);
+        let bytes = (entries as u64)
+            .saturating_mul(8)
+            .saturating_add((rows as u64).saturating_mul(size_of::<Option<Pos>>() as u64));
+        let what = format!("the tables T and O of a model with {ns} states, {na} actions and {no} observations");
+        crate::memory::check_memory(&what, bytes, crate::memory::available_memory())
+            .map_err(|e| ParseError::at(pos, e.to_string()))?;
         self.t = Some(Dense::new(na, ns, ns));
         self.o = Some(Dense::new(na, ns, no));
         Ok(())
