@@ -148,7 +148,8 @@ class Faulty:
 @pytest.mark.parametrize(
     ("fault", "message"),
     [
-        ("range", r"episode 0 \(iteration 0\), step 4: observation 3 \(expected 0\.\.3\)"),
+        # The third call of step returned the bad observation: "step 3", as for a bad reward.
+        ("range", r"episode 0 \(iteration 0\), step 3: observation 3 \(expected 0\.\.3\)"),
         ("nan", r"episode 0 \(iteration 0\), step 3: reward NaN"),
         ("type", r"episode 0 \(iteration 0\), reset: reset returned observation 'a' \(expected an int\)"),
     ],

@@ -162,8 +162,9 @@ impl<B: BatchWorld> Lockstep<B> {
         world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
         for t in 0..horizon {
             for (i, &y) in observations.iter().enumerate() {
+                // Returned by the call before this step: reset (t = 0) or step t.
                 if alive[i] && !(0..n_obs as i64).contains(&y) {
-                    return Err(place(first + i, t + 1).error(&format!("observation {y} (expected 0..{n_obs})")));
+                    return Err(place(first + i, t).error(&format!("observation {y} (expected 0..{n_obs})")));
                 }
             }
             records
@@ -481,12 +482,17 @@ impl Place {
     /// An error of one episode.
     fn error(&self, message: &str) -> Error {
         Error::World(format!(
-            "{}, {} ({}), step {}: {message}",
+            "{}, {} ({}), {}: {message}",
             self.world,
             self.episode(self.episode),
             self.stream(),
-            self.step
+            self.call()
         ))
+    }
+
+    /// The call that returned the value: `reset`, or `step k` (the k-th, from 1).
+    fn call(&self) -> String {
+        if self.step == 0 { "reset".to_string() } else { format!("step {}", self.step) }
     }
 
     /// An error of a call for the whole batch.
@@ -498,7 +504,6 @@ impl Place {
             None if b == a + 1 => format!("episode {a}"),
             None => format!("episodes {a}..{b}"),
         };
-        let call = if self.step == 0 { "reset".to_string() } else { format!("step {}", self.step) };
-        Error::World(format!("{}, {episodes} ({}), {call}: {error}", self.world, self.stream()))
+        Error::World(format!("{}, {episodes} ({}), {}: {error}", self.world, self.stream(), self.call()))
     }
 }
