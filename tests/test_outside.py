@@ -307,3 +307,31 @@ def test_done_flags_are_bools_not_truthiness() -> None:
     for bad in [lambda n: np.full(n, 0.5), lambda n: np.full(n, 2), lambda n: np.array(["False"] * n)]:
         with pytest.raises(cehmm.WorldError, match="done"):
             policy.evaluate(FlagBatch(bad), episodes=3, seed=0)
+
+
+DEEP_WORLD = """
+import sys, cehmm
+sys.setrecursionlimit(100000)
+
+def deep(n):  # each level goes through C (sum, map): it takes the thread's own stack
+    return 0 if n == 0 else sum(map(deep, [n - 1]))
+
+class Deep:
+    n_observations, n_decisions, horizon = 2, 2, 3
+    def reset(self, seed):
+        return 0
+    def step(self, decision):
+        return deep(6000), 1.0, False
+
+print(cehmm.Policy.uniform(Deep(), [1]).evaluate(Deep(), episodes=4, seed=0).mean)
+"""
+
+
+def test_a_world_that_recurses_deeply_runs_on_the_engine_threads() -> None:
+    # It segfaulted on a worker's 2 MiB stack where a threading.Thread runs it fine.
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", DEEP_WORLD], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "3.0"

@@ -24,13 +24,19 @@ pub(crate) fn check_threads(n: usize) -> Result<()> {
 
 /// A rayon pool of `threads` workers (all cores when `None`).
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
+    // A world written in Python runs its code on these threads: their stacks are as deep as a
+    // main thread's (Rust's default of 2 MiB overflows where a Python thread would not).
+    let mut builder = rayon::ThreadPoolBuilder::new().stack_size(WORKER_STACK_BYTES);
     if let Some(n) = threads {
         check_threads(n)?;
         builder = builder.num_threads(n);
     }
     builder.build().map_err(|e| Error::invalid("threads", e.to_string()))
 }
+
+/// The stack of each worker thread: 16 MiB, twice a Linux main thread's default (reserved
+/// address space, used only as deep as the code goes).
+pub const WORKER_STACK_BYTES: usize = 16 << 20;
 
 /// Runs `f`, turning a panic in it (or in a rayon task it waits for) into [`Error::Internal`].
 pub fn catch_panics<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
