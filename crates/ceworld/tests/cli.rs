@@ -164,6 +164,20 @@ fn the_memory_guard_obeys_the_process_limits() {
     assert!(stderr.contains("the tables T and O") && stderr.contains("needs"), "{stderr}");
 }
 
+#[cfg(unix)]
+#[test]
+fn a_model_path_that_is_not_utf8_is_refused_by_name() {
+    use std::os::unix::ffi::OsStrExt;
+    let path = std::ffi::OsStr::from_bytes(b"/tmp/ceworld-\xff.pomdp");
+    let out = Command::new(env!("CARGO_BIN_EXE_ceworld"))
+        .args(["optimize".as_ref(), "--pomdp".as_ref(), path])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--pomdp") && stderr.contains("not valid UTF-8"), "{stderr}");
+}
+
 #[test]
 fn a_discount_json_cannot_hold_is_refused_not_ignored() {
     for d in ["nan", "inf", "-inf", "1e309"] {

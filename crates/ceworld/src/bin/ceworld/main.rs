@@ -211,6 +211,16 @@ pub(crate) fn world_from(args: &WorldArgs) -> Result<AnyWorld> {
             return Err(Error::invalid("--param", format!("{key} given twice")));
         }
     }
+    // A world's parameters are JSON text: a path that is not UTF-8 cannot be one (it would
+    // become another name, and "no such file").
+    if let Some(p) = &args.pomdp
+        && p.to_str().is_none()
+    {
+        return Err(Error::invalid(
+            "--pomdp",
+            format!("{} is not valid UTF-8 (expected a path written in UTF-8: rename or link the file)", p.display()),
+        ));
+    }
     // JSON has no NaN or infinity: such a value would become null, and silently no discount.
     if let Some(d) = args.discount
         && !d.is_finite()
