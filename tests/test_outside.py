@@ -1,38 +1,18 @@
 """Worlds written in Python (cehmm.outside): both protocols optimised, evaluated and rolled out;
 a non-additive score; the Python target-tracking worlds agree with the engine's; bad values,
-exceptions and Ctrl-C."""
+exceptions (Ctrl-C: test_signals.py)."""
 
 from __future__ import annotations
 
 import math
-import signal
-import time
 import traceback
 
 import numpy as np
 import pytest
+from worlds import Corridor
 
 import cehmm
 from cehmm.pyworlds import TrackingBatch, TrackingEpisodes
-
-
-class Corridor:
-    """Cells 0..5, start at 0; decision 1 moves right, 0 left, but the wind reverses a move with
-    probability 0.1. A step's reward is 1 at cell 5. The observation is the cell."""
-
-    n_observations, n_decisions, horizon = 6, 2, 10
-
-    def reset(self, seed: int) -> int:
-        self.rng = np.random.default_rng(seed)
-        self.cell = 0
-        return self.cell
-
-    def step(self, decision: int) -> tuple[int, float, bool]:
-        move = 1 if decision == 1 else -1
-        if self.rng.random() < 0.1:
-            move = -move
-        self.cell = min(5, max(0, self.cell + move))
-        return self.cell, float(self.cell == 5), False
 
 
 def reached_once(observations: np.ndarray, decisions: np.ndarray, rewards: np.ndarray) -> float:
@@ -74,7 +54,7 @@ def test_a_python_world_with_a_non_additive_score_beats_a_random_policy_by_a_mar
     assert result.evaluation.mean > baseline + 0.6, (baseline, result.evaluation)
     assert result.policy.world == {
         "name": "outside",
-        "class": "test_outside.Corridor",
+        "class": "worlds.Corridor",
         "observations": 6,
         "decisions": 2,
         "horizon": 10,
@@ -189,28 +169,6 @@ def test_worlds_that_are_not_worlds_are_refused() -> None:
         cehmm.PythonWorld(type("Empty", (NoHorizon,), {"n_observations": 0})(), horizon=4, name="tiny")
     with pytest.raises(TypeError, match="apply to worlds written in Python"):
         cehmm.optimize(cehmm.TargetTracking(case=1), score=reached_once, progress=False)
-
-
-class Slow(Corridor):
-    def step(self, decision: int) -> tuple[int, float, bool]:
-        time.sleep(0.0002)
-        return super().step(decision)
-
-
-def test_ctrl_c_stops_a_python_world_run_between_iterations() -> None:
-    def handler(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGALRM, handler)
-    signal.setitimer(signal.ITIMER_REAL, 0.5)
-    try:
-        result = cehmm.optimize(
-            Slow(), levels=[2], samples=30, patience=10**6, max_iterations=10**6, eval_episodes=50, progress=False
-        )
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-    assert result.interrupted and result.iterations >= 1
 
 
 class Short(Counter):

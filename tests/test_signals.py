@@ -1,17 +1,21 @@
-"""Signals during long runs: Ctrl-C stops them within an iteration (or a slice of evaluation
-episodes), and what the user's own signal handlers raise comes out unchanged."""
+"""Signals during long runs: Ctrl-C stops them within a step of a world written in Python (a call
+of one run by the engine), the run returning what it had; a second Ctrl-C stops at once; what
+the user's own signal handlers raise comes out unchanged."""
 
 from __future__ import annotations
 
 import json
+import os
 import signal
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from worlds import Corridor
 
 import cehmm
 
@@ -23,14 +27,19 @@ class Deadline(Exception):
 
 
 @contextmanager
-def alarm(seconds: float, exception: type[BaseException]) -> Iterator[None]:
+def alarm(seconds: float, exception: type[BaseException], every: float = 0.0) -> Iterator[list[float]]:
+    """Raises `exception` from a SIGALRM handler after `seconds` (then every `every` seconds);
+    yields the list of the times (time.monotonic()) the handler ran."""
+    times: list[float] = []
+
     def handler(signum: int, frame: object) -> None:
+        times.append(time.monotonic())
         raise exception()
 
     previous = signal.signal(signal.SIGALRM, handler)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    signal.setitimer(signal.ITIMER_REAL, seconds, every)
     try:
-        yield
+        yield times
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
@@ -133,3 +142,82 @@ def test_sigterm_saves_the_checkpoint_and_ends_the_process(case3: cehmm.TargetTr
     settings = dict(levels=[16, 16], samples=2000, rho=0.1, max_iterations=60, eval_episodes=200, progress=False)
     resumed = cehmm.optimize(case3, checkpoint=checkpoint, resume=True, **settings)
     assert _tables(resumed) == _tables(cehmm.optimize(case3, **settings))
+
+
+class Slow(Corridor):
+    """The corridor at 1 ms a step (10 steps an episode)."""
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        time.sleep(0.001)
+        return super().step(decision)
+
+
+# About 0.25 s an iteration; the final evaluation alone would take 100 s.
+SLOW = dict(levels=[2], samples=20, patience=10**6, max_iterations=10**6, eval_episodes=10_000, progress=False)
+
+
+def test_sigint_stops_a_slow_python_world_within_two_seconds() -> None:
+    # A real SIGINT (Python's own handler raises KeyboardInterrupt), sent from another thread.
+    sent: list[float] = []
+
+    def send() -> None:
+        sent.append(time.monotonic())
+        os.kill(os.getpid(), signal.SIGINT)
+
+    timer = threading.Timer(0.9, send)
+    timer.start()
+    try:
+        result = cehmm.optimize(Slow(), **SLOW)
+    finally:
+        timer.cancel()
+    assert time.monotonic() - sent[0] < 2.0
+    assert result.interrupted and result.iterations >= 1
+    # The iteration that was cut is dropped; the best policy is evaluated within a grace of
+    # half a second (about 50 episodes of 10 ms), not on the 10,000 episodes asked.
+    assert 0 <= result.evaluation.episodes < 200, result.evaluation
+    assert result.policy.provenance["interrupted"] is True
+
+
+def test_a_second_ctrl_c_stops_at_once() -> None:
+    # Two signals 0.1 s apart: the second one comes during the grace and aborts.
+    start = time.monotonic()
+    with alarm(0.9, KeyboardInterrupt, every=0.1) as times, pytest.raises(KeyboardInterrupt):
+        cehmm.optimize(Slow(), **SLOW)
+    assert len(times) >= 2 and time.monotonic() - times[1] < 0.5
+    assert time.monotonic() - start < 3.0
+
+
+def test_ctrl_c_before_the_first_iteration_raises() -> None:
+    with alarm(0.05, KeyboardInterrupt) as times, pytest.raises(KeyboardInterrupt):
+        cehmm.optimize(Slow(), **SLOW)
+    assert time.monotonic() - times[0] < 1.0
+
+
+def test_ctrl_c_stops_an_evaluation_of_a_slow_python_world() -> None:
+    policy = cehmm.Policy.uniform(Slow(), [2])
+    with alarm(0.3, KeyboardInterrupt) as times, pytest.raises(KeyboardInterrupt):
+        policy.evaluate(Slow(), episodes=10_000)
+    assert time.monotonic() - times[0] < 1.0
+
+
+def test_ctrl_c_stops_a_controller_search_on_a_slow_python_world() -> None:
+    with alarm(0.9, KeyboardInterrupt) as times:
+        result = cehmm.optimize_controller(
+            Slow(), nodes=2, samples=10, episodes=2, select_episodes=5, patience=10**6, progress=False
+        )
+    assert time.monotonic() - times[0] < 2.0
+    assert result.interrupted and result.stop_reason == "interrupted"
+
+
+def test_a_cut_iteration_is_drawn_again_on_resume(tmp_path: Path) -> None:
+    # The alarm comes in the middle of an iteration (about 0.25 s each): resumed, the run is the
+    # one that was never interrupted.
+    settings = {**SLOW, "max_iterations": 5, "eval_episodes": 20}
+    reference = cehmm.optimize(Slow(), **settings)
+    checkpoint = tmp_path / "slow.ckpt"
+    with alarm(0.6, KeyboardInterrupt):
+        first = cehmm.optimize(Slow(), checkpoint=checkpoint, resume=True, **settings)
+    assert first.interrupted and 1 <= first.iterations < 5
+    resumed = cehmm.optimize(Slow(), checkpoint=checkpoint, resume=True, **settings)
+    assert resumed.iterations == 5 and _tables(resumed) == _tables(reference)
+    assert list(resumed.history["mean"]) == list(reference.history["mean"])

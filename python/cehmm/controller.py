@@ -127,7 +127,8 @@ def optimize_controller(
     estimates is not what is reported. Where :func:`optimize` learns memory only slowly from
     sampled episodes, a controller holds an observation as long as it pays (docs/benchmarks.md).
     The same seed and settings give the same result bit for bit, whatever ``threads``. Ctrl-C
-    stops between iterations and returns the result so far with ``interrupted`` set.
+    stops the search and returns the result so far with ``interrupted`` set, as for
+    :func:`optimize`.
 
     Args:
         world: any world :func:`optimize` takes.

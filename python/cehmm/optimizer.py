@@ -118,8 +118,11 @@ def optimize(
 
     Each iteration draws ``samples`` episodes, keeps the best ``ceil(rho · samples)`` and refits
     every table to them (``h := smoothing · new + (1 − smoothing) · h``). The same seed and
-    settings give the same result bit for bit, whatever ``threads``. Ctrl-C stops between
-    iterations and returns the result so far with ``interrupted`` set (no exception).
+    settings give the same result bit for bit, whatever ``threads``. Ctrl-C stops within
+    a step of a world written in Python (between iterations of one run by the engine) and returns
+    the result so far with ``interrupted`` set (no exception; the iteration it cut is dropped, the
+    best policy evaluated for at most half a second); before the first iteration has ended, or a
+    second time, it raises ``KeyboardInterrupt``.
 
     Args:
         world: the world, e.g. ``TargetTracking(case=3)``; or a world written in Python, a

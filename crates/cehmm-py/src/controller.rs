@@ -7,11 +7,12 @@ use pyo3::types::PyDict;
 use ceworld::ce::controller::{
     ControllerConfig, ControllerOutcome, ValueKind, Valued, optimize_controller_with as search,
 };
+use ceworld::episodes::Interruptible;
 use ceworld::progress::{LiveLine, Progress};
-use ceworld::{Checkpointing, Error, PolicyFile, StopReason};
+use ceworld::{Checkpointing, Error, Interrupt, PolicyFile, StopReason};
 
 use crate::convert::{apply_settings, checkpointing, flag, text};
-use crate::errors::{OrRaise, detached};
+use crate::errors::OrRaise;
 use crate::outside::WorldArg;
 use crate::policy::PyPolicy;
 use crate::results::PyEvaluation;
@@ -122,10 +123,20 @@ pub fn optimize_controller(
     let checkpointing = checkpointing(checkpoint, checkpoint_every, resume)?;
     let checkpointing = checkpointing.as_ref();
     let mut signals = Signals::default();
+    let interrupt = signals.interrupt().clone();
     let outcome = match &world {
         WorldArg::Engine(w) => {
             let any = &w.world;
-            detached(py, || run(Valued::of(any, kind)?, &config, checkpointing, progress, &mut signals))
+            let search = || {
+                ceworld::catch_panics(|| match Valued::of(any, kind)? {
+                    Valued::Sampled(w) => {
+                        let w = Interruptible::new(w, interrupt.clone());
+                        run(Valued::Sampled(&w), &config, checkpointing, progress, &interrupt)
+                    }
+                    exact @ Valued::Exact(_) => run(exact, &config, checkpointing, progress, &interrupt),
+                })
+            };
+            signals.watch(py, search)?.or_raise()
         }
         WorldArg::Outside(_) => {
             if kind == Some(ValueKind::Exact) {
@@ -135,7 +146,9 @@ pub fn optimize_controller(
                 ))
                 .or_raise();
             }
-            world.run(py, |w| run(Valued::Sampled(w), &config, checkpointing, progress, &mut signals))
+            world.run_watched(py, &mut signals, |w| {
+                run(Valued::Sampled(w), &config, checkpointing, progress, &interrupt)
+            })
         }
     };
     signals.finish(py)?;
@@ -148,14 +161,14 @@ fn run(
     config: &ControllerConfig,
     checkpointing: Option<&Checkpointing>,
     progress: bool,
-    signals: &mut Signals,
+    interrupt: &Interrupt,
 ) -> ceworld::Result<PyControllerOutcome> {
     let mut line = progress.then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
     let outcome = search(world, config, checkpointing, |r| {
         if let Some(line) = &mut line {
             line.update(r);
         }
-        signals.flow()
+        interrupt.flow()
     });
     if let Some(line) = line {
         line.finish();

@@ -1,7 +1,7 @@
 //! The exceptions of `cehmm` and the one mapping of core errors to them.
 
 use pyo3::create_exception;
-use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyMemoryError, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 use ceworld::Error;
@@ -48,6 +48,7 @@ create_exception!(
 );
 
 /// The one mapping of core errors to Python exceptions. `Error::WrongType` becomes `TypeError`;
+/// `Error::Interrupted` (Ctrl-C where nothing can be kept) `KeyboardInterrupt`;
 /// `Error::Io` the built-in `OSError` subclass of its errno (`FileNotFoundError`, ...), with
 /// `filename`.
 pub fn raise(error: Error) -> PyErr {
@@ -61,6 +62,7 @@ pub fn raise(error: Error) -> PyErr {
         Error::Internal(_) => InternalError::new_err(message),
         Error::World(_) => WorldError::new_err(message),
         Error::Memory { .. } => PyMemoryError::new_err(message),
+        Error::Interrupted => PyKeyboardInterrupt::new_err(()),
         Error::Io { path, source } => match source.raw_os_error() {
             Some(errno) => {
                 let text = source.to_string();

@@ -103,13 +103,14 @@ pub fn optimize(
     let world = WorldArg::of(world)?;
     let initial = initial.file.policy.clone();
     let mut signals = Signals::default();
-    let outcome = world.run(py, |w| {
+    let interrupt = signals.interrupt().clone();
+    let outcome = world.run_watched(py, &mut signals, |w| {
         let mut line = progress.then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
         let result = ceworld::optimize_with(w, initial, &config, checkpointing.as_ref(), |record| {
             if let Some(line) = &mut line {
                 line.update(record);
             }
-            signals.flow()
+            interrupt.flow()
         });
         if let Some(line) = line {
             line.finish();

@@ -8,12 +8,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use serde_json::Value;
 
-use ceworld::episodes::Shape;
 use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
+use ceworld::episodes::{Interruptible, Shape};
 use ceworld::{Episodes, Error, with_world};
 
 use crate::convert::{count, object, real};
 use crate::errors::{detached, raise};
+use crate::signals::Signals;
 use crate::world::PyWorld;
 
 /// A world written in Python, checked once: its shape, protocol, batch size and score.
@@ -337,15 +338,6 @@ impl<'py> WorldArg<'py> {
         })
     }
 
-    /// Episodes the engine's evaluation may take in one slice, a multiple of the world's batch
-    /// size near `slice` (so that slicing does not change the episodes).
-    pub fn slice(&self, slice: usize) -> usize {
-        match self {
-            WorldArg::Engine(_) => slice,
-            WorldArg::Outside(w) => slice.div_ceil(w.batch).max(1) * w.batch,
-        }
-    }
-
     /// Runs `f` on the world's episodes, detached from the interpreter. An exception raised by a
     /// world's Python code comes back as itself, with a note naming the episode and the step.
     pub fn run<T: Send>(
@@ -353,24 +345,60 @@ impl<'py> WorldArg<'py> {
         py: Python<'_>,
         f: impl FnOnce(&dyn Episodes) -> ceworld::Result<T> + Send,
     ) -> PyResult<T> {
+        self.run_with(py, None, f)
+    }
+
+    /// [`WorldArg::run`], the signal handlers run meanwhile: Ctrl-C stops the episodes (between
+    /// two steps of a world written in Python, between two calls of one run by the engine).
+    pub fn run_watched<T: Send>(
+        &self,
+        py: Python<'_>,
+        signals: &mut Signals,
+        f: impl FnOnce(&dyn Episodes) -> ceworld::Result<T> + Send,
+    ) -> PyResult<T> {
+        self.run_with(py, Some(signals), f)
+    }
+
+    fn run_with<T: Send>(
+        &self,
+        py: Python<'_>,
+        signals: Option<&mut Signals>,
+        f: impl FnOnce(&dyn Episodes) -> ceworld::Result<T> + Send,
+    ) -> PyResult<T> {
         match self {
             WorldArg::Engine(w) => {
                 let world = &w.world;
-                detached(py, || with_world!(world, w => f(w)))
+                match signals {
+                    None => detached(py, || with_world!(world, w => f(w))),
+                    Some(signals) => {
+                        let interrupt = signals.interrupt().clone();
+                        let run =
+                            || ceworld::catch_panics(|| with_world!(world, w => f(&Interruptible::new(w, interrupt))));
+                        signals.watch(py, run)?.map_err(raise)
+                    }
+                }
             }
-            WorldArg::Outside(w) => run_outside(py, w, |lockstep| f(lockstep)),
+            WorldArg::Outside(w) => run_outside(py, w, signals, |lockstep| f(lockstep)),
         }
     }
 }
 
-/// Runs `f` on a world written in Python (see [`WorldArg::run`]).
+/// Runs `f` on a world written in Python (see [`WorldArg::run`] and [`WorldArg::run_watched`]).
 pub fn run_outside<T: Send>(
     py: Python<'_>,
     world: &PyOutsideWorld,
+    signals: Option<&mut Signals>,
     f: impl FnOnce(&Lockstep<PyBatch>) -> ceworld::Result<T> + Send,
 ) -> PyResult<T> {
-    let lockstep = Lockstep::new(world.batch_world()).map_err(raise)?;
-    let result = py.detach(|| ceworld::catch_panics(|| f(&lockstep)));
+    let mut lockstep = Lockstep::new(world.batch_world()).map_err(raise)?;
+    let result = match signals {
+        None => py.detach(|| ceworld::catch_panics(|| f(&lockstep))),
+        Some(signals) => {
+            lockstep = lockstep.interruptible(signals.interrupt().clone());
+            let lockstep = &lockstep;
+            signals.watch(py, || ceworld::catch_panics(|| f(lockstep)))?
+        }
+    };
     let raised = lockstep.into_inner().raised;
     match (result, raised) {
         (Err(error), Some(exception)) => {

@@ -16,10 +16,10 @@ use crate::convert::{count, flag, levels, object, optional_count, real, seed, sh
 use crate::errors::{OrRaise, detached, raise};
 use crate::outside::{WorldArg, run_outside};
 use crate::results::{PyEvaluation, PyExactValue, PyRollout};
+use crate::signals::Signals;
 use crate::world::PyWorld;
 
 /// Episodes evaluated between two runs of the signal handlers.
-const EVALUATION_SLICE: usize = 100_000;
 
 #[pyclass(module = "cehmm._core", name = "Policy", frozen)]
 pub struct PyPolicy {
@@ -208,16 +208,13 @@ impl PyPolicy {
         ceworld::evaluate::check_episodes(episodes).or_raise()?;
         let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
         let pool = thread_pool(threads).or_raise()?;
-        // Slices of episodes, the signal handlers run between them: Ctrl-C stops a long
-        // evaluation within a slice (raising KeyboardInterrupt); the result does not depend on it.
-        let mut rewards = Vec::with_capacity(episodes);
-        let slice = world.slice(EVALUATION_SLICE);
-        for start in (0..episodes).step_by(slice) {
-            let range = start..episodes.min(start + slice);
-            let part = world.run(py, |w| pool.install(|| ceworld::evaluate::rewards_of(w, policy, range, seed_)))?;
-            rewards.extend(part);
-            py.check_signals()?;
-        }
+        // Ctrl-C stops the evaluation within a step of a world written in Python (between
+        // slices of episodes of one run by the engine), raising KeyboardInterrupt.
+        let mut signals = Signals::default();
+        let rewards = world
+            .run_watched(py, &mut signals, |w| pool.install(|| ceworld::evaluate::rewards(w, policy, episodes, seed_)));
+        signals.finish(py)?;
+        let rewards = rewards?;
         let evaluation = ceworld::Evaluation::from_rewards(&rewards);
         Ok(PyEvaluation(evaluation))
     }
@@ -239,7 +236,7 @@ impl PyPolicy {
                 detached(py, || with_world!(world, w => rollout(w, policy, seed, episode)))?
             }
             WorldArg::Outside(w) => {
-                run_outside(py, &w, |w| ceworld::episodes::outside::rollout(w, policy, seed, episode))?
+                run_outside(py, &w, None, |w| ceworld::episodes::outside::rollout(w, policy, seed, episode))?
             }
         };
         Ok(PyRollout(recorded))

@@ -164,7 +164,8 @@ impl PyQLearner {
         let every = optional_real("checkpoint_every", checkpoint_every)?;
         let learner = &mut self.learner;
         let mut signals = Signals::default();
-        let outcome = py.detach(|| {
+        let interrupt = signals.interrupt().clone();
+        let outcome = signals.watch(py, || {
             ceworld::catch_panics(|| {
                 with_learner!(learner, q => {
                     let mut line = progress.then(LiveLine::stderr);
@@ -172,7 +173,7 @@ impl PyQLearner {
                         if let Some(line) = &mut line {
                             line.update(p.line());
                         }
-                        signals.flow()
+                        interrupt.flow()
                     });
                     if let Some(line) = line {
                         line.finish();
@@ -180,7 +181,7 @@ impl PyQLearner {
                     outcome
                 })
             })
-        });
+        })?;
         signals.finish(py)?;
         Ok(outcome.or_raise()?.interrupted)
     }

@@ -1,5 +1,9 @@
-//! How long computations are run: on a rayon pool of a chosen size, and stopped between steps
-//! when the caller's observer asks.
+//! How long computations are run: on a rayon pool of a chosen size, stopped between iterations
+//! when the caller's observer asks, and between steps when another thread asks ([`Interrupt`]).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 use crate::error::{Error, Result};
 
@@ -10,6 +14,73 @@ pub enum Flow {
     Continue,
     /// Stop now and return what there is (marked as interrupted).
     Stop,
+}
+
+/// A stop asked of a computation from another thread (the interpreter's main thread when the
+/// user presses Ctrl-C). The first request stops the work at the next step (the optimisers drop
+/// the iteration it cuts, keep what they had, and evaluate it for at most [`GRACE`]); the second
+/// aborts everything at once ([`Error::Interrupted`]). Cloning shares the request.
+#[derive(Clone, Debug)]
+pub struct Interrupt(Arc<Requests>);
+
+#[derive(Debug)]
+struct Requests {
+    count: AtomicU32,
+    /// Nanoseconds after `since` until which a stop request does not cut the work (0: none).
+    grace_until: AtomicU64,
+    since: Instant,
+}
+
+/// How long an interrupted run may go on evaluating what it kept (its best policy, and the
+/// score that chooses between restarts) before that too is cut.
+pub const GRACE: Duration = Duration::from_millis(500);
+
+impl Default for Interrupt {
+    fn default() -> Self {
+        Interrupt(Arc::new(Requests {
+            count: AtomicU32::new(0),
+            grace_until: AtomicU64::new(0),
+            since: Instant::now(),
+        }))
+    }
+}
+
+impl Interrupt {
+    /// Asks the work to stop (a second request aborts it).
+    pub fn request(&self) {
+        self.0.count.fetch_add(1, Ordering::SeqCst);
+    }
+
+    /// Whether a stop has been asked.
+    pub fn stopping(&self) -> bool {
+        self.0.count.load(Ordering::SeqCst) > 0
+    }
+
+    /// For an optimiser's observer: stop once a stop was asked.
+    pub fn flow(&self) -> Flow {
+        if self.stopping() { Flow::Stop } else { Flow::Continue }
+    }
+
+    /// Whether a second stop has been asked: nothing goes on.
+    pub fn aborted(&self) -> bool {
+        self.0.count.load(Ordering::SeqCst) > 1
+    }
+
+    /// [`Error::Interrupted`] where the work must stop here: aborted, or a stop asked and no
+    /// grace running.
+    pub fn check(&self) -> Result<()> {
+        let graced = || {
+            let until = self.0.grace_until.load(Ordering::SeqCst);
+            until > 0 && (self.0.since.elapsed().as_nanos() as u64) < until
+        };
+        if self.aborted() || (self.stopping() && !graced()) { Err(Error::Interrupted) } else { Ok(()) }
+    }
+
+    /// Lets the work of the next `time` run although a stop was asked (an abort still stops it).
+    pub fn grace(&self, time: Duration) {
+        let until = (self.0.since.elapsed() + time).as_nanos() as u64;
+        self.0.grace_until.store(until.max(1), Ordering::SeqCst);
+    }
 }
 
 /// Most worker threads of one pool.
@@ -54,6 +125,24 @@ pub fn catch_panics<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
 mod tests {
     use super::*;
     use rayon::prelude::*;
+
+    #[test]
+    fn an_interrupt_cuts_once_asked_spares_a_grace_and_aborts_on_the_second_request() {
+        let interrupt = Interrupt::default();
+        assert!(interrupt.check().is_ok() && !interrupt.stopping());
+        let shared = interrupt.clone();
+        shared.request();
+        assert!(interrupt.stopping() && !interrupt.aborted());
+        assert!(matches!(interrupt.check(), Err(Error::Interrupted)));
+        interrupt.grace(Duration::from_secs(60));
+        assert!(interrupt.check().is_ok(), "a grace lets the work go on");
+        interrupt.grace(Duration::ZERO);
+        assert!(interrupt.check().is_err(), "a grace ends");
+        interrupt.grace(Duration::from_secs(60));
+        shared.request();
+        assert!(interrupt.aborted());
+        assert!(matches!(interrupt.check(), Err(Error::Interrupted)), "an abort cuts in a grace too");
+    }
 
     #[test]
     fn a_panic_in_a_rayon_task_becomes_an_internal_error() {

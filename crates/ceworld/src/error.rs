@@ -71,6 +71,10 @@ pub enum Error {
     /// instead of aborting the process. Please report it with the message.
     #[error("internal error (a bug, please report it): {0}")]
     Internal(String),
+    /// Work stopped from outside ([`crate::control::Interrupt`]): a second Ctrl-C, or a first
+    /// one where nothing done can be kept.
+    #[error("interrupted")]
+    Interrupted,
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -61,9 +61,15 @@ fn spread(rewards: &[f64], mean: f64) -> (f64, f64) {
 }
 
 impl Evaluation {
-    /// Summarises the rewards (in any order).
+    /// Summarises the rewards (in any order); without any (an evaluation cut before its first
+    /// episode), every figure is NaN.
     pub fn from_rewards(rewards: &[f64]) -> Evaluation {
         let n = rewards.len();
+        if n == 0 {
+            let quantiles = [0.05, 0.25, 0.5, 0.75, 0.95].into_iter().map(|q| (q, f64::NAN)).collect();
+            let nan = f64::NAN;
+            return Evaluation { episodes: 0, mean: nan, std_error: nan, std: nan, min: nan, max: nan, quantiles };
+        }
         let mean = mean(rewards.iter().copied());
         let (std, std_error) = spread(rewards, mean);
         let mut sorted = rewards.to_vec();
@@ -119,12 +125,58 @@ fn episode_rewards<E: Episodes + ?Sized>(
     Ok(values)
 }
 
+/// Rewards of the episodes `0..episodes` of streams `(seed, purpose, 0, k)` that finish before
+/// the world's interrupt cuts them (all of them where nothing does), in order, run in slices of
+/// [`Episodes::slice`] episodes: what an interrupted run can still tell of what it kept. An
+/// abort is an error.
+pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
+    world: &E,
+    policy: &Hhmm,
+    episodes: usize,
+    seed: u64,
+    purpose: Purpose,
+) -> Result<Vec<f64>> {
+    let slice = world.slice().max(1);
+    let mut rewards = Vec::with_capacity(episodes);
+    for start in (0..episodes).step_by(slice) {
+        match episode_rewards(world, policy, start..episodes.min(start + slice), seed, purpose) {
+            Ok(part) => rewards.extend(part),
+            Err(Error::Interrupted) if !world.interrupt().is_some_and(crate::control::Interrupt::aborted) => break,
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(rewards)
+}
+
+/// [`evaluate`] in an interrupted run: of the episodes that finish within the interrupt's grace.
+pub(crate) fn evaluate_until_cut<E: Episodes + ?Sized>(
+    world: &E,
+    policy: &Hhmm,
+    episodes: usize,
+    seed: u64,
+) -> Result<Evaluation> {
+    check_fits(world, policy)?;
+    Ok(Evaluation::from_rewards(&rewards_until_cut(world, policy, episodes, seed, Purpose::Evaluate)?))
+}
+
 /// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between
 /// policies that leaves the `Evaluate` episodes fresh for reporting the chosen one.
 pub fn selection_mean<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {
     check_fits(world, policy)?;
     // Summed in episode order, so the score does not depend on the thread count.
     Ok(mean(episode_rewards(world, policy, 0..episodes, seed, Purpose::Select)?.iter().copied()))
+}
+
+/// [`selection_mean`] in an interrupted run: of the episodes that finish within the interrupt's
+/// grace (NaN where none does).
+pub(crate) fn selection_mean_until_cut<E: Episodes + ?Sized>(
+    world: &E,
+    policy: &Hhmm,
+    episodes: usize,
+    seed: u64,
+) -> Result<f64> {
+    check_fits(world, policy)?;
+    Ok(mean(rewards_until_cut(world, policy, episodes, seed, Purpose::Select)?.iter().copied()))
 }
 
 /// Mean, standard error, extremes and quantiles of the reward over fresh episodes.

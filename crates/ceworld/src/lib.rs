@@ -37,7 +37,7 @@ pub use ce::optimize::{optimize, optimize_with};
 pub use ce::record::{CeResult, IterationRecord};
 pub use ce::resume::Checkpointing;
 pub use ce::stopping::StopReason;
-pub use control::{Flow, catch_panics, thread_pool};
+pub use control::{Flow, Interrupt, catch_panics, thread_pool};
 pub use episodes::{Episodes, Shape};
 pub use error::{Error, Result};
 pub use evaluate::{Evaluation, evaluate};

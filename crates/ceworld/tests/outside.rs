@@ -9,8 +9,11 @@ use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut, rollou
 use ceworld::episodes::run::{run_recorded, run_with};
 use ceworld::evaluate::{rewards, rewards_of};
 use ceworld::rng::{EngineRng, Purpose, stream};
-use ceworld::{CeConfig, Error, Flow, World, optimize, random_policy};
+use ceworld::{CeConfig, Checkpointing, Error, Flow, Interrupt, World, optimize, optimize_with, random_policy};
 use serde_json::{Value, json};
+
+#[path = "common/temp.rs"]
+mod temp;
 
 const HORIZON: usize = 10;
 
@@ -77,6 +80,9 @@ struct RingBatch {
     /// What to corrupt: (call number, episode in the batch, what).
     fault: Option<(usize, usize, Fault)>,
     calls: usize,
+    /// A stop asked at these step calls (as Ctrl-C would, from another thread).
+    requests: Vec<usize>,
+    interrupt: Interrupt,
 }
 
 #[derive(Clone, Copy)]
@@ -87,7 +93,14 @@ enum Fault {
 
 impl RingBatch {
     fn new(batch: usize) -> RingBatch {
-        RingBatch { batch, states: Vec::new(), fault: None, calls: 0 }
+        RingBatch {
+            batch,
+            states: Vec::new(),
+            fault: None,
+            calls: 0,
+            requests: Vec::new(),
+            interrupt: Interrupt::default(),
+        }
     }
 }
 
@@ -108,6 +121,9 @@ impl BatchWorld for RingBatch {
     }
     fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
         self.calls += 1;
+        if self.requests.contains(&self.calls) {
+            self.interrupt.request();
+        }
         for (i, state) in self.states.iter_mut().enumerate() {
             out.rewards[i] = ring_step(state, decisions[i] as usize);
             out.observations[i] = state.cell as i64;
@@ -417,4 +433,58 @@ fn every_controller_is_valued_on_the_same_world_seeds() {
             assert_eq!(own.len(), episodes, "{seeds:?}");
         }
     }
+}
+
+/// The ring in batches of `batch`, a stop asked at the step calls `requests`.
+fn interrupted_ring(batch: usize, requests: &[usize]) -> Lockstep<RingBatch> {
+    let interrupt = Interrupt::default();
+    let world = RingBatch { requests: requests.to_vec(), interrupt: interrupt.clone(), ..RingBatch::new(batch) };
+    Lockstep::new(world).unwrap().interruptible(interrupt)
+}
+
+#[test]
+fn a_stop_cuts_the_iteration_between_two_steps_and_a_resumed_run_draws_it_again() {
+    // Batches of 50 episodes of 10 steps: 40 step calls an iteration (fewer where every
+    // episode of a batch ends early). A stop asked at call 100 cuts the third iteration.
+    let initial = random_policy(&RING, &[3, 2], 4).unwrap();
+    let reference = optimize(&RING, initial.clone(), &config(2), |_| Flow::Continue).unwrap();
+    let path = temp::TempPath::new("ceworld-interrupt", "run.ckpt");
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let world = interrupted_ring(50, &[100]);
+    let cut = optimize_with(&world, initial.clone(), &config(2), Some(&checkpointing), |_| Flow::Continue).unwrap();
+    assert!(cut.interrupted() && (1..6).contains(&cut.history.len()), "{} iterations", cut.history.len());
+    let means = |r: &ceworld::CeResult| r.history.iter().map(|i| (i.mean, i.elite_threshold)).collect::<Vec<_>>();
+    assert_eq!(means(&cut)[..], means(&reference)[..cut.history.len()]);
+    // The best policy is still evaluated, for at most the grace (the ring is fast: in full).
+    assert_eq!(cut.evaluation.episodes, 500);
+    let resumed = optimize_with(&interrupted_ring(50, &[]), initial.clone(), &config(2), Some(&checkpointing), |_| {
+        Flow::Continue
+    })
+    .unwrap();
+    assert!(!resumed.interrupted());
+    assert_eq!((&resumed.policy, &resumed.last_policy), (&reference.policy, &reference.last_policy));
+    assert_eq!(resumed.evaluation, reference.evaluation);
+    // A stop in the first iteration leaves nothing to return; a second one aborts at once.
+    let early = optimize(&interrupted_ring(50, &[3]), initial.clone(), &config(2), |_| Flow::Continue);
+    assert!(matches!(early, Err(Error::Interrupted)), "{early:?}");
+    let interrupt = Interrupt::default();
+    interrupt.request();
+    interrupt.request();
+    let outside = Lockstep::new(RingBatch::new(50)).unwrap().interruptible(interrupt);
+    assert!(matches!(rewards(&outside, &initial, 100, 0), Err(Error::Interrupted)));
+}
+
+#[test]
+fn a_stop_cuts_a_controller_search_and_keeps_its_best_so_far() {
+    use ceworld::ce::controller::{Valued, optimize_controller};
+    let reference = optimize_controller(Valued::Sampled(&RING), &search(2), |_| Flow::Continue).unwrap();
+    // 60 controllers × 7 episodes in batches of 7: 600 step calls an iteration at most.
+    let world = interrupted_ring(7, &[1500]);
+    let cut = optimize_controller(Valued::Sampled(&world), &search(2), |_| Flow::Continue).unwrap();
+    assert_eq!(cut.stop, ceworld::StopReason::Interrupted);
+    assert!((1..5).contains(&cut.history.len()), "{} iterations", cut.history.len());
+    let best_so_far = |o: &ceworld::ControllerOutcome| o.history.iter().map(|r| r.best_so_far).collect::<Vec<_>>();
+    assert_eq!(best_so_far(&cut)[..], best_so_far(&reference)[..cut.history.len()]);
+    let early = optimize_controller(Valued::Sampled(&interrupted_ring(7, &[3])), &search(2), |_| Flow::Continue);
+    assert!(matches!(early, Err(Error::Interrupted)));
 }

@@ -12,10 +12,10 @@ use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memor
 use crate::ce::record::{CeResult, IterationRecord};
 use crate::ce::resume::{Checkpointing, Saver};
 use crate::ce::stopping::StopReason;
-use crate::control::{Flow, thread_pool};
+use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{check_fits, evaluate, selection_mean};
+use crate::evaluate::{check_fits, evaluate, evaluate_until_cut, selection_mean, selection_mean_until_cut};
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream_key};
 
@@ -66,7 +66,7 @@ pub fn optimize_with<E: Episodes + ?Sized>(
     let pool = thread_pool(config.threads)?;
     // Before any copy of the tables: the run must fit in the memory this process may use.
     check_size(world, initial.layout(), config, pool.current_num_threads())?;
-    let mut interrupted = None;
+    let (mut interrupted, mut stopped) = (None, false);
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
         let mut run = CeConfig { restarts: 1, seed: restart_seed(config.seed, restart), ..config.clone() };
@@ -82,13 +82,24 @@ pub fn optimize_with<E: Episodes + ?Sized>(
             // The first run always runs (at least one iteration), however little time is left.
             run.time_limit = Some(left.max(f64::MIN_POSITIVE));
         }
-        let mut result = optimize_once(world, initial.clone(), &run, resume, &mut observer, &mut saver)?;
+        let mut result = match optimize_once(world, initial.clone(), &run, resume, &mut observer, &mut saver) {
+            // Cut before its first iteration: the runs that finished are what there is.
+            Err(Error::Interrupted) if !saver.state.finished.is_empty() && !aborted(world) => {
+                stopped = true;
+                break;
+            }
+            result => result?,
+        };
         result.restart = restart;
         if config.restarts == 1 {
             result.seconds = saver.seconds();
             return Ok(result);
         }
-        let score = pool.install(|| selection_mean(world, &result.policy, config.eval_episodes, config.seed))?;
+        let score = if result.interrupted() {
+            pool.install(|| selection_mean_until_cut(world, &result.policy, config.eval_episodes, config.seed))?
+        } else {
+            pool.install(|| selection_mean(world, &result.policy, config.eval_episodes, config.seed))?
+        };
         if result.interrupted() {
             // The checkpoint keeps this run's state, to be continued.
             interrupted = Some(FinishedRun { score, result });
@@ -99,15 +110,24 @@ pub fn optimize_with<E: Episodes + ?Sized>(
         saver.save(true)?;
     }
     let mut runs: Vec<&FinishedRun> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
-    let best = runs.iter().enumerate().fold(0, |b, (i, r)| if r.score > runs[b].score { i } else { b });
+    // The first with the highest score (a run cut before its score's first episode has NaN).
+    let best = runs
+        .iter()
+        .enumerate()
+        .fold(0, |b, (i, r)| if r.score > runs[b].score || runs[b].score.is_nan() { i } else { b });
     let scores = runs.iter().map(|r| r.score).collect();
     let mut result = runs.swap_remove(best).result.clone();
-    if interrupted.is_some() {
+    if interrupted.is_some() || stopped {
         result.stop = StopReason::Interrupted;
     }
     result.seconds = saver.seconds();
     result.restart_scores = scores;
     Ok(result)
+}
+
+/// Whether the world's interrupt asked twice (nothing goes on).
+fn aborted<E: Episodes + ?Sized>(world: &E) -> bool {
+    world.interrupt().is_some_and(Interrupt::aborted)
 }
 
 /// Refuses, before anything is allocated, a run whose iteration or memory would not fit.
@@ -179,10 +199,22 @@ fn optimize_once<E: Episodes + ?Sized>(
     while stop.is_none() {
         let iteration = history.len();
         let seed = config.seed;
-        pool.install(|| {
+        let ran = pool.install(|| {
             let batch = Batch { values: &mut rewards, records: Some((&mut records, &mut lengths)) };
             world.run(&policy, Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 }, 0, batch)
-        })?;
+        });
+        if let Err(e) = ran {
+            if !matches!(e, Error::Interrupted) {
+                return Err(e);
+            }
+            // Cut by an interrupt: the iteration is dropped (a resumed run draws it again), the
+            // state is the one after the last whole iteration.
+            stop = Some(StopReason::Interrupted);
+            if best.is_some() {
+                saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful))?;
+            }
+            break;
+        }
         pool.install(|| {
             keys.par_iter_mut().enumerate().for_each(|(k, key)| {
                 *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
@@ -224,21 +256,23 @@ fn optimize_once<E: Episodes + ?Sized>(
             successful,
         };
         history.push(record.clone());
-        stop = if observer(&record) == Flow::Stop {
+        stop = if observer(&record) == Flow::Stop || world.interrupt().is_some_and(Interrupt::stopping) {
             Some(StopReason::Interrupted)
         } else {
             stopping_rule(config, &record, unsuccessful)
         };
-        saver.save_run(stop.is_some(), || RunState {
-            policy: policy.clone(),
-            history: history.clone(),
-            best: best.clone(),
-            unsuccessful,
-        })?;
+        saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful))?;
     }
     let stop = stop.expect("the loop ends with a reason");
-    let (_, best_iteration, best_policy) = best.expect("at least one iteration ran");
-    let evaluation = pool.install(|| evaluate(world, &best_policy, config.eval_episodes, config.seed))?;
+    // A run cut before its first iteration has nothing to keep.
+    let (_, best_iteration, best_policy) = best.ok_or(Error::Interrupted)?;
+    let evaluation = if stop == StopReason::Interrupted {
+        // What an interrupted run kept is evaluated for at most the interrupt's grace.
+        world.interrupt().inspect(|i| i.grace(GRACE));
+        pool.install(|| evaluate_until_cut(world, &best_policy, config.eval_episodes, config.seed))?
+    } else {
+        pool.install(|| evaluate(world, &best_policy, config.eval_episodes, config.seed))?
+    };
     Ok(CeResult {
         policy: best_policy,
         last_policy: policy,
@@ -250,6 +284,16 @@ fn optimize_once<E: Episodes + ?Sized>(
         restart: 0,
         restart_scores: Vec::new(),
     })
+}
+
+/// A run's state, to be saved.
+fn snapshot(
+    policy: &Hhmm,
+    history: &[IterationRecord],
+    best: Option<&(f64, usize, Hhmm)>,
+    unsuccessful: usize,
+) -> RunState {
+    RunState { policy: policy.clone(), history: history.to_vec(), best: best.cloned(), unsuccessful }
 }
 
 /// The stopping rule that holds after iteration `record` with `unsuccessful` unsuccessful

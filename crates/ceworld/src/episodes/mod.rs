@@ -9,6 +9,7 @@ pub mod run;
 use rayon::prelude::*;
 use serde_json::Value;
 
+use crate::control::Interrupt;
 use crate::error::Result;
 use crate::policy::Hhmm;
 use crate::policy::controller::Controller;
@@ -82,6 +83,76 @@ pub trait Episodes: Sync {
         episodes: usize,
         values: &mut [f64],
     ) -> Result<()>;
+    /// What may stop these episodes from outside, if anything: where a stop is asked, the runs
+    /// return [`crate::Error::Interrupted`] (a world outside the engine between two steps, one
+    /// run by it between two calls).
+    fn interrupt(&self) -> Option<&Interrupt> {
+        None
+    }
+    /// Episodes of one slice of an evaluation that an interrupt may cut: slices that start on a
+    /// multiple of it give the episodes of the whole evaluation.
+    fn slice(&self) -> usize {
+        SLICE
+    }
+}
+
+/// Episodes a world run by the engine runs in one slice of a long evaluation: the interrupt
+/// is checked between slices (≈ 0.1 s of target tracking on one core).
+pub const SLICE: usize = 1 << 14;
+
+/// The episodes of `episodes`, stopped by `interrupt` (checked before each call, and between
+/// slices of [`SLICE`] episodes of an evaluation): a world run by the engine made interruptible.
+pub struct Interruptible<'a, E: ?Sized> {
+    episodes: &'a E,
+    interrupt: Interrupt,
+}
+
+impl<'a, E: Episodes + ?Sized> Interruptible<'a, E> {
+    /// `episodes`, stopped by `interrupt`.
+    pub fn new(episodes: &'a E, interrupt: Interrupt) -> Self {
+        Interruptible { episodes, interrupt }
+    }
+}
+
+impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
+    fn shape(&self) -> Shape {
+        self.episodes.shape()
+    }
+
+    fn description(&self) -> Value {
+        self.episodes.description()
+    }
+
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+        if batch.records.is_some() {
+            self.interrupt.check()?;
+            return self.episodes.run(policy, streams, first, batch);
+        }
+        for (k, values) in batch.values.chunks_mut(SLICE).enumerate() {
+            self.interrupt.check()?;
+            self.episodes.run(policy, streams, first + k * SLICE, Batch { values, records: None })?;
+        }
+        Ok(())
+    }
+
+    fn run_controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+    ) -> Result<()> {
+        self.interrupt.check()?;
+        self.episodes.run_controllers(controllers, streams, episodes, values)
+    }
+
+    fn interrupt(&self) -> Option<&Interrupt> {
+        Some(&self.interrupt)
+    }
+
+    fn slice(&self) -> usize {
+        self.episodes.slice()
+    }
 }
 
 impl<W: World> Episodes for W {

@@ -13,6 +13,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 use serde_json::Value;
 
+use crate::control::Interrupt;
 use crate::episodes::check_fits;
 use crate::episodes::run::Rollout;
 use crate::episodes::{Batch, Episodes, Shape, Streams};
@@ -94,6 +95,7 @@ pub struct Lockstep<B> {
     shape: Shape,
     description: Value,
     batch: usize,
+    interrupt: Option<Interrupt>,
 }
 
 impl<B: BatchWorld> Lockstep<B> {
@@ -120,7 +122,18 @@ impl<B: BatchWorld> Lockstep<B> {
         if batch == 0 {
             return Err(Error::invalid(format!("{} batch size", label(&description)), "0 (expected at least 1)"));
         }
-        Ok(Lockstep { world: Mutex::new(world), shape, description, batch })
+        Ok(Lockstep { world: Mutex::new(world), shape, description, batch, interrupt: None })
+    }
+
+    /// The world, its runs stopped between two steps where `interrupt` asks.
+    #[must_use]
+    pub fn interruptible(self, interrupt: Interrupt) -> Lockstep<B> {
+        Lockstep { interrupt: Some(interrupt), ..self }
+    }
+
+    /// [`crate::Error::Interrupted`] where the interrupt asks the work to stop.
+    fn check_interrupt(&self) -> Result<()> {
+        self.interrupt.as_ref().map_or(Ok(()), Interrupt::check)
     }
 
     /// The world back (after a run, to read what it kept).
@@ -159,8 +172,10 @@ impl<B: BatchWorld> Lockstep<B> {
         let mut alive = vec![true; n];
         let mut step_rewards = vec![0.0f64; n * horizon];
         lengths.fill(0);
+        self.check_interrupt()?;
         world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
         for t in 0..horizon {
+            self.check_interrupt()?;
             for (i, &y) in observations.iter().enumerate() {
                 // Returned by the call before this step: reset (t = 0) or step t.
                 if alive[i] && !(0..n_obs as i64).contains(&y) {
@@ -336,6 +351,15 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
 
     fn description(&self) -> Value {
         self.description.clone()
+    }
+
+    fn interrupt(&self) -> Option<&Interrupt> {
+        self.interrupt.as_ref()
+    }
+
+    /// A batch: slices of whole batches give the episodes of the whole evaluation.
+    fn slice(&self) -> usize {
+        self.batch
     }
 
     fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {

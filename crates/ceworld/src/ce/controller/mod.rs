@@ -21,11 +21,11 @@ use serde_json::json;
 
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::StopReason;
-use crate::control::{Flow, thread_pool};
+use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::{Episodes, Streams};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::evaluate::mean;
-use crate::evaluate::{Evaluation, evaluate};
+use crate::evaluate::{Evaluation, evaluate, evaluate_until_cut};
 pub use crate::policy::controller::Controller;
 use crate::policy::file::PolicyFile;
 use crate::policy::{Hhmm, Layout};
@@ -170,7 +170,7 @@ pub fn optimize_controller_with(
         Valued::Sampled(w) => Values::Sampled(w),
     };
     let search = Search { config, values, y1, n_actions, pool };
-    let mut interrupted = None;
+    let (mut interrupted, mut stopped) = (None, false);
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
         let resume = saver.state.run.take();
@@ -178,7 +178,16 @@ pub fn optimize_controller_with(
         if restart > 0 && resume.is_none() && config.time_limit.is_some_and(|t| saver.seconds() >= t) {
             break;
         }
-        let run = search.run(restart_seed(config.seed, restart), restart, resume, &mut saver, &mut observe)?;
+        let run = match search.run(restart_seed(config.seed, restart), restart, resume, &mut saver, &mut observe) {
+            // Cut before its first iteration: the runs that finished are what there is.
+            Err(Error::Interrupted)
+                if !saver.state.finished.is_empty() && !search.interrupt().is_some_and(Interrupt::aborted) =>
+            {
+                stopped = true;
+                break;
+            }
+            run => run?,
+        };
         if run.stop == StopReason::Interrupted {
             // The checkpoint keeps this run's state, to be continued.
             interrupted = Some(run);
@@ -205,12 +214,18 @@ pub fn optimize_controller_with(
         restart: best,
         run_values: runs.iter().map(|r| r.value).collect(),
         history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
-        stop: runs.last().expect("at least one run").stop,
+        stop: if stopped { StopReason::Interrupted } else { runs.last().expect("at least one run").stop },
         seconds: 0.0,
     };
     if let Valued::Sampled(w) = world {
-        // The value reported comes from episodes the controller was not chosen on.
-        let evaluation = search.pool.install(|| evaluate(w, &outcome.policy, config.eval_episodes, config.seed))?;
+        // The value reported comes from episodes the controller was not chosen on; an
+        // interrupted search's for at most the interrupt's grace.
+        let evaluation = if outcome.stop == StopReason::Interrupted {
+            w.interrupt().inspect(|i| i.grace(GRACE));
+            search.pool.install(|| evaluate_until_cut(w, &outcome.policy, config.eval_episodes, config.seed))?
+        } else {
+            search.pool.install(|| evaluate(w, &outcome.policy, config.eval_episodes, config.seed))?
+        };
         outcome.value = evaluation.mean;
         outcome.evaluation = Some(evaluation);
     }
@@ -234,6 +249,14 @@ struct Search<'a> {
 }
 
 impl Search<'_> {
+    /// What may stop the search's episodes from outside.
+    fn interrupt(&self) -> Option<&Interrupt> {
+        match &self.values {
+            Values::Sampled(world) => world.interrupt(),
+            Values::Exact(_) => None,
+        }
+    }
+
     /// The iteration's controllers, drawn from `laws`, with their values: exact (the controllers
     /// not yet evaluated when the time limit passes are left out, the first always counts), or
     /// the mean of `K` episodes on the iteration's common streams.
@@ -347,112 +370,140 @@ impl Search<'_> {
     ) -> Result<FinishedSearch> {
         let config = self.config;
         let rules = config.stop_rules();
-        let elite_size = config.elite_count();
-        let SearchState {
-            mut laws,
-            mut best,
-            mut history,
-            mut since_progress,
-            best_threshold,
-            mut injections,
-            mut growths,
-        } = resume.unwrap_or_else(|| self.fresh());
-        let mut best_threshold = best_threshold.unwrap_or(f64::NEG_INFINITY);
+        let mut state = resume.unwrap_or_else(|| self.fresh());
         // A resumed run whose last iteration meets a stopping rule ends at once.
-        let resumed_stop =
-            history.last().and_then(|r| rules.check(history.len(), r.best_so_far, since_progress, r.record.seconds));
+        let resumed_stop = state
+            .history
+            .last()
+            .and_then(|r| rules.check(state.history.len(), r.best_so_far, state.since_progress, r.record.seconds));
         let stop = if let Some(stop) = resumed_stop {
             stop
         } else {
             loop {
-                let iteration = history.len();
+                let iteration = state.history.len();
                 // The time limit as an instant, so that the exact values can check it as they go.
                 let deadline = config.time_limit.map(|t| {
                     std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
                 });
                 let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
-                let drawn = self.draw_and_value(&laws, seed, iteration, &over_time)?;
-                let cut = drawn.iter().any(Option::is_none);
-                let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
-                let elite_size = elite_size.min(drawn.len());
-                let mut order: Vec<usize> = (0..drawn.len()).collect();
-                // Highest value first; equal values keep their draw order (deterministic).
-                order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
-                let top = order[0];
-                let threshold = drawn[order[elite_size - 1]].0;
-                // Progress is a better controller or a higher elite threshold (Rubinstein's γ_t): a
-                // lucky early draw must not stop a search whose laws are still climbing.
-                let mut progress = threshold > best_threshold + config.tolerance;
-                best_threshold = best_threshold.max(threshold);
-                let candidate = self.candidate(&drawn, &order)?;
-                if best.as_ref().is_none_or(|(b, _, _)| candidate.0 > *b + config.tolerance) {
-                    best = Some((candidate.0, drawn[candidate.1].1.clone(), iteration));
-                    progress = true;
-                }
-                since_progress = if progress { 0 } else { since_progress + 1 };
-                // Ties at the threshold are left out when some controllers beat it: a plateau of
-                // equal values (e.g. tiger's "always listen") would otherwise fill the elite and hold
-                // the laws there.
-                let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
-                let kept = if above > 0 { above } else { elite_size };
-                if !cut {
-                    // A cut iteration's elite would favour whichever controllers came first.
-                    let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
-                    laws.refit(&elite, config.smoothing);
-                }
-                // Patience run out with escapes left: mix in the uniform law, or else grow a
-                // node around the best controller, and go on.
-                let (injected, grown) = if since_progress >= config.patience {
-                    let from = best.as_ref().map(|b| &b.1).expect("a best controller after an iteration");
-                    self.escape(&mut laws, from, &mut injections, &mut growths)
-                } else {
-                    (false, false)
+                let stop = match self.value(&state.laws, seed, iteration, &over_time) {
+                    Ok(drawn) => {
+                        let cut = drawn.cut;
+                        let record = self.learn(&mut state, &drawn, restart, saver.seconds());
+                        let flow = observe(&record);
+                        let (value, seconds) = (record.best_so_far, record.record.seconds);
+                        state.history.push(record);
+                        if flow == Flow::Stop || self.interrupt().is_some_and(Interrupt::stopping) {
+                            Some(StopReason::Interrupted)
+                        } else {
+                            rules
+                                .check(state.history.len(), value, state.since_progress, seconds)
+                                .or(cut.then_some(StopReason::TimeLimit))
+                        }
+                    }
+                    // Cut by an interrupt: the iteration is dropped (a resumed search draws it
+                    // again), the state is the one after the last whole iteration.
+                    Err(Error::Interrupted) => Some(StopReason::Interrupted),
+                    Err(e) => return Err(e),
                 };
-                if injected || grown {
-                    since_progress = 0;
-                    best_threshold = f64::NEG_INFINITY;
+                if state.best.is_none() {
+                    // Cut before the run's first iteration: nothing to keep.
+                    break StopReason::Interrupted;
                 }
-                let record = ControllerIteration {
-                    restart,
-                    record: IterationRecord {
-                        iteration,
-                        mean: mean(drawn.iter().map(|d| d.0)),
-                        best: drawn[top].0,
-                        elite_threshold: threshold,
-                        elite_mean: mean(order[..kept].iter().map(|&i| drawn[i].0)),
-                        seconds: saver.seconds(),
-                        successful: progress,
-                    },
-                    best_so_far: best.as_ref().map_or(f64::NAN, |b| b.0),
-                    concentration: laws.concentration(),
-                    evaluated: drawn.len(),
-                    injected,
-                    grown,
-                };
-                let flow = observe(&record);
-                let (value, seconds) = (record.best_so_far, record.record.seconds);
-                history.push(record);
-                let stop = if flow == Flow::Stop {
-                    Some(StopReason::Interrupted)
-                } else {
-                    rules.check(history.len(), value, since_progress, seconds).or(cut.then_some(StopReason::TimeLimit))
-                };
-                let threshold = (best_threshold > f64::NEG_INFINITY).then_some(best_threshold);
-                saver.save_run(stop.is_some(), || SearchState {
-                    laws: laws.clone(),
-                    best: best.clone(),
-                    history: history.clone(),
-                    since_progress,
-                    best_threshold: threshold,
-                    injections,
-                    growths,
-                })?;
+                saver.save_run(stop.is_some(), || state.clone())?;
                 if let Some(stop) = stop {
                     break stop;
                 }
             }
         };
-        let (value, controller, best_iteration) = best.expect("at least one iteration");
-        Ok(FinishedSearch { value, controller, best_iteration, history, stop })
+        // A run cut before its first iteration has nothing to keep.
+        let (value, controller, best_iteration) = state.best.ok_or(Error::Interrupted)?;
+        Ok(FinishedSearch { value, controller, best_iteration, history: state.history, stop })
     }
+
+    /// The iteration's controllers drawn from `laws` and valued, best first, with the candidate
+    /// for the best so far.
+    fn value(&self, laws: &Laws, seed: u64, iteration: usize, over_time: &(dyn Fn() -> bool + Sync)) -> Result<Draws> {
+        let drawn = self.draw_and_value(laws, seed, iteration, over_time)?;
+        let cut = drawn.iter().any(Option::is_none);
+        let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
+        let mut order: Vec<usize> = (0..drawn.len()).collect();
+        // Highest value first; equal values keep their draw order (deterministic).
+        order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
+        let candidate = self.candidate(&drawn, &order)?;
+        Ok(Draws { iteration, drawn, cut, order, candidate })
+    }
+
+    /// Learns from an iteration's controllers: the best so far, progress, the laws refitted to
+    /// the elite, an escape where patience ran out; the iteration's record.
+    fn learn(&self, state: &mut SearchState, drawn: &Draws, restart: usize, seconds: f64) -> ControllerIteration {
+        let config = self.config;
+        let Draws { iteration, drawn, cut, order, candidate } = drawn;
+        let elite_size = config.elite_count().min(drawn.len());
+        let top = order[0];
+        let threshold = drawn[order[elite_size - 1]].0;
+        let mut best_threshold = state.best_threshold.unwrap_or(f64::NEG_INFINITY);
+        // Progress is a better controller or a higher elite threshold (Rubinstein's γ_t): a
+        // lucky early draw must not stop a search whose laws are still climbing.
+        let mut progress = threshold > best_threshold + config.tolerance;
+        best_threshold = best_threshold.max(threshold);
+        if state.best.as_ref().is_none_or(|(b, _, _)| candidate.0 > *b + config.tolerance) {
+            state.best = Some((candidate.0, drawn[candidate.1].1.clone(), *iteration));
+            progress = true;
+        }
+        state.since_progress = if progress { 0 } else { state.since_progress + 1 };
+        // Ties at the threshold are left out when some controllers beat it: a plateau of equal
+        // values (e.g. tiger's "always listen") would otherwise fill the elite and hold the laws
+        // there.
+        let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
+        let kept = if above > 0 { above } else { elite_size };
+        if !cut {
+            // A cut iteration's elite would favour whichever controllers came first.
+            let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
+            state.laws.refit(&elite, config.smoothing);
+        }
+        // Patience run out with escapes left: mix in the uniform law, or else grow a node around
+        // the best controller, and go on.
+        let (injected, grown) = if state.since_progress >= config.patience {
+            let from = state.best.as_ref().map(|b| &b.1).expect("a best controller after an iteration");
+            self.escape(&mut state.laws, from, &mut state.injections, &mut state.growths)
+        } else {
+            (false, false)
+        };
+        if injected || grown {
+            state.since_progress = 0;
+            best_threshold = f64::NEG_INFINITY;
+        }
+        state.best_threshold = (best_threshold > f64::NEG_INFINITY).then_some(best_threshold);
+        ControllerIteration {
+            restart,
+            record: IterationRecord {
+                iteration: *iteration,
+                mean: mean(drawn.iter().map(|d| d.0)),
+                best: drawn[top].0,
+                elite_threshold: threshold,
+                elite_mean: mean(order[..kept].iter().map(|&i| drawn[i].0)),
+                seconds,
+                successful: progress,
+            },
+            best_so_far: state.best.as_ref().map_or(f64::NAN, |b| b.0),
+            concentration: state.laws.concentration(),
+            evaluated: drawn.len(),
+            injected,
+            grown,
+        }
+    }
+}
+
+/// One iteration's controllers with their values, and the candidate for the best so far.
+struct Draws {
+    iteration: usize,
+    /// The controllers valued, in draw order.
+    drawn: Vec<(f64, Controller)>,
+    /// Whether the time limit left some out.
+    cut: bool,
+    /// Indices into `drawn`, highest value first.
+    order: Vec<usize>,
+    /// (value, index in `drawn`).
+    candidate: (f64, usize),
 }

@@ -1,0 +1,24 @@
+"""Small worlds written in Python, shared by the tests."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Corridor:
+    """Cells 0..5, start at 0; decision 1 moves right, 0 left, but the wind reverses a move with
+    probability 0.1. A step's reward is 1 at cell 5. The observation is the cell."""
+
+    n_observations, n_decisions, horizon = 6, 2, 10
+
+    def reset(self, seed: int) -> int:
+        self.rng = np.random.default_rng(seed)
+        self.cell = 0
+        return self.cell
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        move = 1 if decision == 1 else -1
+        if self.rng.random() < 0.1:
+            move = -move
+        self.cell = min(5, max(0, self.cell + move))
+        return self.cell, float(self.cell == 5), False
