@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import os
 import resource
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from worlds import Corridor
 
 import cehmm
 
@@ -147,6 +149,35 @@ def test_an_unwritable_checkpoint_is_refused_before_the_run(case1: cehmm.TargetT
         cehmm.optimize_controller(case1, nodes=2, samples=10, checkpoint=path, progress=False, **long)
     assert raised.value.filename == str(path)
     assert not path.parent.exists()
+
+
+class LosesTheDisk(Corridor):
+    """The corridor, whose 300th step removes the checkpoint's folder (a disk gone full or lost)."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder, self.steps = folder, 0
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        self.steps += 1
+        if self.steps == 300:
+            shutil.rmtree(self.folder)
+        return super().step(decision)
+
+
+@pytest.mark.parametrize("search", ["optimize", "optimize_controller"])
+def test_a_checkpoint_that_cannot_be_written_does_not_cost_the_result(tmp_path: Path, search: str) -> None:
+    run = getattr(cehmm, search)
+    settings = dict(samples=20, max_iterations=4, eval_episodes=20, progress=False)
+    if search == "optimize_controller":
+        settings.update(nodes=2, episodes=2, select_episodes=5)
+    reference = run(Corridor(), **settings)
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    with pytest.warns(RuntimeWarning, match=r"checkpoint could not be written \(.*run\.ckpt.*the run went on"):
+        result = run(LosesTheDisk(folder), checkpoint=folder / "run.ckpt", checkpoint_every=1e-6, **settings)
+    assert list(result.history["mean"]) == list(reference.history["mean"])
+    assert result.evaluation == reference.evaluation
+    assert not folder.exists()
 
 
 @pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")

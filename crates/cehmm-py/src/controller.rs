@@ -152,7 +152,9 @@ pub fn optimize_controller(
         }
     };
     signals.finish(py)?;
-    outcome
+    let outcome = outcome?;
+    crate::errors::warn_checkpoint(py, outcome.outcome.checkpoint_error.as_deref())?;
+    Ok(outcome)
 }
 
 /// The search with its progress line.

@@ -74,6 +74,15 @@ pub fn raise(error: Error) -> PyErr {
     }
 }
 
+/// A `RuntimeWarning` that the last checkpoint of a run could not be written (`error`): the run
+/// went on and its result is returned.
+pub fn warn_checkpoint(py: Python<'_>, error: Option<&str>) -> PyResult<()> {
+    let Some(error) = error else { return Ok(()) };
+    let message = format!("{} and its result is returned", ceworld::ce::resume::checkpoint_warning(error));
+    let message = std::ffi::CString::new(message.replace('\0', " ")).expect("no NUL left");
+    PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyRuntimeWarning>(), &message, 2)
+}
+
 /// `.map_err(raise)` for a core result.
 pub trait OrRaise<T> {
     /// The value, or the error as a Python exception.

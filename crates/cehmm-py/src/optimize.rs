@@ -122,5 +122,7 @@ pub fn optimize(
         })
     });
     signals.finish(py)?;
-    outcome
+    let outcome = outcome?;
+    crate::errors::warn_checkpoint(py, outcome.result.checkpoint_error.as_deref())?;
+    Ok(outcome)
 }

@@ -183,7 +183,9 @@ impl PyQLearner {
             })
         })?;
         signals.finish(py)?;
-        Ok(outcome.or_raise()?.interrupted)
+        let outcome = outcome.or_raise()?;
+        crate::errors::warn_checkpoint(py, outcome.checkpoint_error.as_deref())?;
+        Ok(outcome.interrupted)
     }
 
     /// The greedy policy evaluated on windows of `world`; ties broken as in learning unless

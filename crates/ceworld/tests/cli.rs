@@ -319,3 +319,48 @@ fn sigterm_then_resume_gives_the_uninterrupted_policy() {
     fails_with(&["optimize", "--resume"], &["--checkpoint"]);
     fails_with(&[&args[..], &["--seed", "3"]].concat(), &["checkpoint", "seed"]);
 }
+
+#[cfg(unix)]
+#[test]
+fn a_checkpoint_that_cannot_be_written_does_not_cost_the_result() {
+    // The checkpoint's folder is removed after the first save (a disk gone full or lost):
+    // the run goes on, --out on another folder is written, and a warning says why.
+    let out = temp("lost-disk.json");
+    let dir = out.with_extension("disk");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let checkpoint = dir.join("run.ckpt");
+    let args = [
+        "optimize",
+        "--case",
+        "3",
+        "--levels",
+        "8,2",
+        "--samples",
+        "1000",
+        "--max-iterations",
+        "30",
+        "--eval-episodes",
+        "200",
+        "--checkpoint-every",
+        "0.001",
+        "--checkpoint",
+        checkpoint.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (status, stdout, stderr) = common::act_when_ready(&args, |_| {
+        // Once the first checkpoint is saved: the run is under way.
+        while !checkpoint.exists() {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    });
+    assert!(status.success(), "{stderr}");
+    assert!(stdout.contains("max_iterations: 30 iterations"), "{stdout}");
+    assert!(stderr.contains("warning: the last checkpoint could not be written ("), "{stderr}");
+    assert!(stderr.contains("run.ckpt") && !stderr.contains(".tmp"), "{stderr}");
+    let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(doc["provenance"]["iterations"], 30);
+    assert!(!dir.exists());
+}

@@ -83,6 +83,8 @@ struct RingBatch {
     /// A stop asked at these step calls (as Ctrl-C would, from another thread).
     requests: Vec<usize>,
     interrupt: Interrupt,
+    /// A folder removed at this step call (the disk of a checkpoint gone).
+    remove: Option<(usize, std::path::PathBuf)>,
 }
 
 #[derive(Clone, Copy)]
@@ -100,6 +102,7 @@ impl RingBatch {
             calls: 0,
             requests: Vec::new(),
             interrupt: Interrupt::default(),
+            remove: None,
         }
     }
 }
@@ -123,6 +126,9 @@ impl BatchWorld for RingBatch {
         self.calls += 1;
         if self.requests.contains(&self.calls) {
             self.interrupt.request();
+        }
+        if let Some((_, dir)) = self.remove.as_ref().filter(|(call, _)| *call == self.calls) {
+            std::fs::remove_dir_all(dir).unwrap();
         }
         for (i, state) in self.states.iter_mut().enumerate() {
             out.rewards[i] = ring_step(state, decisions[i] as usize);
@@ -487,4 +493,27 @@ fn a_stop_cuts_a_controller_search_and_keeps_its_best_so_far() {
     assert_eq!(best_so_far(&cut)[..], best_so_far(&reference)[..cut.history.len()]);
     let early = optimize_controller(Valued::Sampled(&interrupted_ring(7, &[3])), &search(2), |_| Flow::Continue);
     assert!(matches!(early, Err(Error::Interrupted)));
+}
+
+#[test]
+fn a_checkpoint_that_cannot_be_written_does_not_cost_the_result() {
+    // The checkpoint's folder disappears in the third iteration (as a full or lost disk): the
+    // run goes on, returns the uninterrupted result, and says why the checkpoint failed.
+    let initial = random_policy(&RING, &[3, 2], 4).unwrap();
+    let reference = optimize(&RING, initial.clone(), &config(2), |_| Flow::Continue).unwrap();
+    assert_eq!(reference.checkpoint_error, None);
+    let dir = temp::TempPath::new("ceworld-lost-disk", "sub");
+    std::fs::create_dir(&*dir).unwrap();
+    let path = dir.join("run.ckpt");
+    for every in [1e9, 0.0001] {
+        std::fs::create_dir_all(&*dir).unwrap();
+        let checkpointing = Checkpointing { path: path.clone(), every, resume: false };
+        let world = Lockstep::new(RingBatch { remove: Some((100, dir.to_path_buf())), ..RingBatch::new(50) }).unwrap();
+        let result =
+            optimize_with(&world, initial.clone(), &config(2), Some(&checkpointing), |_| Flow::Continue).unwrap();
+        assert_eq!((&result.policy, &result.evaluation), (&reference.policy, &reference.evaluation));
+        let error = result.checkpoint_error.expect("the failure is told");
+        assert!(error.contains("run.ckpt") && !error.contains(".tmp"), "{error}");
+        assert!(!path.exists());
+    }
 }

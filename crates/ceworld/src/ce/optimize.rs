@@ -93,6 +93,7 @@ pub fn optimize_with<E: Episodes + ?Sized>(
         result.restart = restart;
         if config.restarts == 1 {
             result.seconds = saver.seconds();
+            result.checkpoint_error = saver.failed.take();
             return Ok(result);
         }
         let score = if result.interrupted() {
@@ -107,7 +108,7 @@ pub fn optimize_with<E: Episodes + ?Sized>(
         }
         saver.state.finished.push(FinishedRun { score, result });
         saver.state.restart += 1;
-        saver.save(true)?;
+        saver.save(true);
     }
     let mut runs: Vec<&FinishedRun> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
     // The first with the highest score (a run cut before its score's first episode has NaN).
@@ -122,6 +123,7 @@ pub fn optimize_with<E: Episodes + ?Sized>(
     }
     result.seconds = saver.seconds();
     result.restart_scores = scores;
+    result.checkpoint_error = saver.failed.take();
     Ok(result)
 }
 
@@ -211,7 +213,7 @@ fn optimize_once<E: Episodes + ?Sized>(
             // state is the one after the last whole iteration.
             stop = Some(StopReason::Interrupted);
             if best.is_some() {
-                saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful))?;
+                saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful));
             }
             break;
         }
@@ -261,7 +263,7 @@ fn optimize_once<E: Episodes + ?Sized>(
         } else {
             stopping_rule(config, &record, unsuccessful)
         };
-        saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful))?;
+        saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful));
     }
     let stop = stop.expect("the loop ends with a reason");
     // A run cut before its first iteration has nothing to keep.
@@ -283,6 +285,7 @@ fn optimize_once<E: Episodes + ?Sized>(
         seconds: before + started.elapsed().as_secs_f64(),
         restart: 0,
         restart_scores: Vec::new(),
+        checkpoint_error: None,
     })
 }
 

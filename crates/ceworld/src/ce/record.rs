@@ -91,6 +91,10 @@ pub struct CeResult {
     /// With `restarts > 1`: every run's score on the selection episodes, in run order (the
     /// returned run is the first with the highest); empty for a single run.
     pub restart_scores: Vec<f64>,
+    /// Why the last checkpoint that could not be written failed, if one failed: the run went on
+    /// (a full disk must not cost the result), and the caller tells the user.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_error: Option<String>,
 }
 
 impl CeResult {

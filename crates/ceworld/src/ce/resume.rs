@@ -207,6 +207,11 @@ impl<K: Resumable> Checkpoint<K> {
     }
 }
 
+/// What to tell the user of a result whose last checkpoint failed with `error`.
+pub fn checkpoint_warning(error: &str) -> String {
+    format!("the last checkpoint could not be written ({error}); the run went on")
+}
+
 /// Keeps the checkpoint of a run and saves it when due.
 pub(crate) struct Saver<'a, K: Resumable> {
     checkpointing: Option<&'a Checkpointing>,
@@ -216,6 +221,8 @@ pub(crate) struct Saver<'a, K: Resumable> {
     pub before: f64,
     started: Instant,
     last_save: Instant,
+    /// Why the last save that failed failed (`None` once one succeeds after it).
+    pub failed: Option<String>,
 }
 
 impl<'a, K: Resumable> Saver<'a, K> {
@@ -254,7 +261,7 @@ impl<'a, K: Resumable> Saver<'a, K> {
         }
         let state = state.unwrap_or_else(|| Checkpoint::fresh(world_json, config, start));
         let now = Instant::now();
-        Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now })
+        Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now, failed: None })
     }
 
     /// Seconds spent, every session together.
@@ -267,27 +274,26 @@ impl<'a, K: Resumable> Saver<'a, K> {
         self.checkpointing.is_some_and(|c| force || self.last_save.elapsed().as_secs_f64() >= c.every)
     }
 
-    /// Saves the state when checkpointing and a save is due (always when `force`).
-    pub fn save(&mut self, force: bool) -> Result<()> {
+    /// Saves the state when checkpointing and a save is due (always when `force`). A save that
+    /// fails (a full disk) does not stop the run: its error is kept in [`Saver::failed`] for the
+    /// result, and the next save tries again (the file on disk, if any, is the last good one).
+    pub fn save(&mut self, force: bool) {
         if let Some(c) = self.checkpointing
             && self.due(force)
         {
             self.state.seconds = self.seconds();
-            self.state.save(&c.path)?;
+            self.failed = self.state.save(&c.path).err().map(|e| e.to_string());
             self.last_save = Instant::now();
         }
-        Ok(())
     }
 
     /// Saves the state with the run in progress, `run()`, when a save is due (always when
     /// `force`); the run is built only then.
-    pub fn save_run(&mut self, force: bool, run: impl FnOnce() -> K::Run) -> Result<()> {
+    pub fn save_run(&mut self, force: bool, run: impl FnOnce() -> K::Run) {
         if self.due(force) {
             self.state.run = Some(run());
-            let saved = self.save(true);
+            self.save(true);
             self.state.run = None;
-            saved?;
         }
-        Ok(())
     }
 }

@@ -142,6 +142,14 @@ impl<W: KnownState> QLearner<W> {
         let first = self.updates;
         let mut last_checkpoint = Instant::now();
         let mut checkpoints = 0;
+        let mut checkpoint_error = None;
+        let mut save = |learner: &Self, path: &std::path::Path| match learner.save(path) {
+            Ok(()) => {
+                checkpoints += 1;
+                checkpoint_error = None;
+            }
+            Err(e) => checkpoint_error = Some(e.to_string()),
+        };
         let mut interrupted = false;
         while self.updates < until {
             let stats = self.run(CHUNK.min(until - self.updates));
@@ -162,21 +170,20 @@ impl<W: KnownState> QLearner<W> {
             }
             if let (Some(path), Some(every)) = (checkpoint, checkpoint_every) {
                 if last_checkpoint.elapsed().as_secs_f64() >= every && self.updates < until {
-                    self.save(path)?;
-                    checkpoints += 1;
+                    save(self, path);
                     last_checkpoint = Instant::now();
                 }
             }
         }
         if let Some(path) = checkpoint {
-            self.save(path)?;
-            checkpoints += 1;
+            save(self, path);
         }
         Ok(TrainOutcome {
             updates: self.updates - first,
             seconds: started.elapsed().as_secs_f64(),
             interrupted,
             checkpoints,
+            checkpoint_error,
         })
     }
 }
@@ -222,7 +229,7 @@ impl QProgress {
 }
 
 /// How a [`QLearner::train`] call ended.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TrainOutcome {
     /// Updates run in this call.
     pub updates: u64,
@@ -232,4 +239,7 @@ pub struct TrainOutcome {
     pub interrupted: bool,
     /// Checkpoints written.
     pub checkpoints: u64,
+    /// Why the last checkpoint that could not be written failed, if one failed: the run went on
+    /// (a full disk must not cost it), and the caller tells the user.
+    pub checkpoint_error: Option<String>,
 }

@@ -390,6 +390,17 @@ fn train_checkpoints_and_stops_when_asked() {
 }
 
 #[test]
+fn a_checkpoint_that_cannot_be_written_does_not_stop_training() {
+    // Every save fails (the folder is gone): the training runs to the end and says why.
+    let path = std::env::temp_dir().join(format!("ceworld-no-folder-{}", std::process::id())).join("q.qtable");
+    let mut learner = QLearner::new(small_world(), QConfig::default()).unwrap();
+    let outcome = learner.train(3 * CHUNK, Some(&path), Some(1e-9), |_| Flow::Continue).unwrap();
+    assert_eq!((outcome.updates, outcome.checkpoints, outcome.interrupted), (3 * CHUNK, 0, false));
+    let error = outcome.checkpoint_error.expect("the failure is told");
+    assert!(error.contains("q.qtable") && !error.contains(".tmp"), "{error}");
+}
+
+#[test]
 fn loading_checks_the_file() {
     let world = small_world();
     let learner = QLearner::new(world.clone(), QConfig::default()).unwrap();

@@ -12,6 +12,15 @@ pub fn interrupt_when_ready(args: &[&str]) -> (std::process::ExitStatus, String,
 
 /// As [`interrupt_when_ready`], with the signal `signal` (as `kill` takes it: `-TERM`, ...).
 pub fn signal_when_ready(signal: &str, args: &[&str]) -> (std::process::ExitStatus, String, String) {
+    act_when_ready(args, |pid| {
+        let status = Command::new("kill").args([signal, &pid.to_string()]).status().unwrap();
+        assert!(status.success());
+    })
+}
+
+/// Starts `ceworld ARGS`, waits for its first line on stderr, calls `act` with its process id,
+/// and returns (exit status, stdout, stderr).
+pub fn act_when_ready(args: &[&str], act: impl FnOnce(u32)) -> (std::process::ExitStatus, String, String) {
     use std::io::{BufRead, Read};
     let mut child = Command::new(env!("CARGO_BIN_EXE_ceworld"))
         .args(args)
@@ -23,8 +32,7 @@ pub fn signal_when_ready(signal: &str, args: &[&str]) -> (std::process::ExitStat
     let mut first = Vec::new();
     stderr.read_until(b'\n', &mut first).unwrap();
     assert!(first.ends_with(b"\n"), "no start line: {}", String::from_utf8_lossy(&first));
-    let status = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
-    assert!(status.success());
+    act(child.id());
     let mut rest = String::new();
     stderr.read_to_string(&mut rest).unwrap();
     let mut stdout = String::new();

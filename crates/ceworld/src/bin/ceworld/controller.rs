@@ -68,6 +68,7 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         progress.finish();
     }
     outcome.to_file(valued.episodes(), &config).save(&args.out)?;
+    crate::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
     let what = match (&outcome.evaluation, &world) {
         (Some(e), _) => format!("{:.4} ± {:.4} on {} fresh episodes", e.mean, e.std_error, e.episodes),
         (None, ceworld::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {

@@ -294,6 +294,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     }
     let file = result.to_file(world, &config);
     file.save(&args.out)?;
+    warn_checkpoint(result.checkpoint_error.as_deref(), &args.out);
     let e = &result.evaluation;
     if config.restarts > 1 {
         println!("best of {} restarts: restart {}", config.restarts, result.restart);
@@ -313,6 +314,17 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// Tells that the last checkpoint could not be written (the run went on, its result is in `out`).
+pub(crate) fn warn_checkpoint(error: Option<&str>, out: &std::path::Path) {
+    if let Some(error) = error {
+        eprintln!(
+            "warning: {} and its result is saved in {}",
+            ceworld::ce::resume::checkpoint_warning(error),
+            out.display()
+        );
+    }
 }
 
 fn run() -> Result<()> {

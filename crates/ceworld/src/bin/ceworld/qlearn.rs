@@ -219,7 +219,13 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
     if let Some(line) = line {
         line.finish();
     }
-    if !outcome.interrupted && args.out != checkpoint {
+    if args.out != checkpoint {
+        if !outcome.interrupted {
+            learner.save(&args.out)?;
+        }
+        crate::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
+    } else if outcome.checkpoint_error.is_some() {
+        // The checkpoint is the result: one more try, its error the run's.
         learner.save(&args.out)?;
     }
     let rss = peak_rss().map_or("unknown".into(), |b| format!("{:.2} GiB", b as f64 / (1u64 << 30) as f64));

@@ -90,6 +90,9 @@ pub struct ControllerOutcome {
     pub stop: StopReason,
     /// Seconds taken.
     pub seconds: f64,
+    /// Why the last checkpoint that could not be written failed, if one failed (the search
+    /// went on).
+    pub checkpoint_error: Option<String>,
 }
 
 impl ControllerOutcome {
@@ -196,7 +199,7 @@ pub fn optimize_controller_with(
         let stop = run.stop;
         saver.state.finished.push(run);
         saver.state.restart += 1;
-        saver.save(true)?;
+        saver.save(true);
         if stop == StopReason::TimeLimit {
             break;
         }
@@ -216,6 +219,7 @@ pub fn optimize_controller_with(
         history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
         stop: if stopped { StopReason::Interrupted } else { runs.last().expect("at least one run").stop },
         seconds: 0.0,
+        checkpoint_error: None,
     };
     if let Valued::Sampled(w) = world {
         // The value reported comes from episodes the controller was not chosen on; an
@@ -230,6 +234,7 @@ pub fn optimize_controller_with(
         outcome.evaluation = Some(evaluation);
     }
     outcome.seconds = saver.seconds();
+    outcome.checkpoint_error = saver.failed.take();
     Ok(outcome)
 }
 
@@ -410,7 +415,7 @@ impl Search<'_> {
                     // Cut before the run's first iteration: nothing to keep.
                     break StopReason::Interrupted;
                 }
-                saver.save_run(stop.is_some(), || state.clone())?;
+                saver.save_run(stop.is_some(), || state.clone());
                 if let Some(stop) = stop {
                     break stop;
                 }
