@@ -410,12 +410,17 @@ fn random_models_match_the_oracle() {
                     assert!((x - y).abs() < 1e-12, "case {case}: {x} vs {y}\n{text}");
                 }
                 let mut want = vec![0.0; na * ns];
+                // The indexed lookup of the world's outcomes gives the oracle's rewards too.
+                let mut outcomes = p.outcome_rewards();
                 for a in 0..na {
                     for s in 0..ns {
+                        outcomes.select(a, s);
                         for s2 in 0..ns {
-                            for o in 0..no {
+                            let row = outcomes.row(s2).to_vec();
+                            for (o, &from_row) in row.iter().enumerate() {
                                 let rv = g.r[((a * ns + s) * ns + s2) * no + o];
                                 assert_eq!(p.reward(a, s, s2, o), rv, "case {case}:\n{text}");
+                                assert_eq!(from_row, rv, "case {case}: outcome reward\n{text}");
                                 want[a * ns + s] += g.t[(a * ns + s) * ns + s2] * g.o[(a * ns + s2) * no + o] * rv;
                             }
                         }

@@ -212,23 +212,20 @@ impl Tables {
         let mut start_alias = vec![AliasEntry::default(); n_s];
         build_alias(&start, &mut start_alias, &mut scratch);
         let (mut offsets, mut next, mut prob, mut reward) = (vec![0], Vec::new(), Vec::new(), Vec::new());
+        // The reward of each outcome: the last matching entry in file order.
+        let mut rewards = pomdp.outcome_rewards();
         for s in 0..n_s {
             for a in 0..n_a {
-                // The reward entries that may apply to (a, s), in file order (the last match wins).
-                let entries: Vec<_> = pomdp
-                    .rewards
-                    .iter()
-                    .filter(|e| e.action.is_none_or(|x| x == a) && e.state.is_none_or(|x| x == s))
-                    .collect();
+                rewards.select(a, s);
                 for s2 in 0..n_s {
                     let t = pomdp.transition[(a * n_s + s) * n_s + s2];
                     if t == 0.0 {
                         continue;
                     }
-                    for o in 0..n_o {
+                    let row = rewards.row(s2);
+                    for (o, &r) in row.iter().enumerate() {
                         let p = t * pomdp.observation[(a * n_s + s2) * n_o + o];
                         if p > 0.0 {
-                            let r = entries.iter().rev().find(|e| e.matches(a, s, s2, o)).map_or(0.0, |e| e.value);
                             next.push((s2 as u32, o as u32));
                             prob.push(p);
                             reward.push(sign * r);

@@ -195,3 +195,98 @@ impl Pomdp {
         total
     }
 }
+
+/// The reward of every outcome `(s', o)` of one `(a, s)`: the value of the last entry in file
+/// order that matches (0 where none does), found in O(entries + O) for each `s'` rather than by
+/// scanning the entries for each outcome (a file of wildcard lines over thousands of states
+/// would take cubic time).
+pub struct OutcomeRewards<'a> {
+    pomdp: &'a Pomdp,
+    /// The entries that match the current `(a, s)`, in file order.
+    entries: Vec<usize>,
+    /// For each `o`, the last of `entries` with `s' = *` matching `o` (a position in `entries`).
+    wild: Vec<Option<usize>>,
+    /// For each `s'`, the positions in `entries` of those with that `s'`.
+    by_next: Vec<Vec<usize>>,
+    touched: Vec<usize>,
+    last: Vec<Option<usize>>,
+    row: Vec<f64>,
+}
+
+impl Pomdp {
+    /// An [`OutcomeRewards`] for this model (call [`OutcomeRewards::select`] first).
+    pub fn outcome_rewards(&self) -> OutcomeRewards<'_> {
+        let (ns, no) = (self.num_states(), self.num_observations());
+        OutcomeRewards {
+            pomdp: self,
+            entries: Vec::new(),
+            wild: vec![None; no],
+            by_next: vec![Vec::new(); ns],
+            touched: Vec::new(),
+            last: vec![None; no],
+            row: vec![0.0; no],
+        }
+    }
+}
+
+impl OutcomeRewards<'_> {
+    /// Makes `(a, s)` the pair whose outcomes [`OutcomeRewards::row`] gives.
+    pub fn select(&mut self, a: usize, s: usize) {
+        let rewards = &self.pomdp.rewards;
+        self.entries.clear();
+        self.entries.extend(
+            (0..rewards.len())
+                .filter(|&i| rewards[i].action.is_none_or(|x| x == a) && rewards[i].state.is_none_or(|x| x == s)),
+        );
+        for n in self.touched.drain(..) {
+            self.by_next[n].clear();
+        }
+        self.wild.fill(None);
+        let mut wild_all = None;
+        for (k, &i) in self.entries.iter().enumerate() {
+            let e = &rewards[i];
+            match (e.next_state, e.observation) {
+                (None, None) => wild_all = Some(k),
+                (None, Some(o)) => {
+                    if let Some(w) = self.wild.get_mut(o) {
+                        *w = Some(k);
+                    }
+                }
+                (Some(n), _) => {
+                    if let Some(list) = self.by_next.get_mut(n) {
+                        if list.is_empty() {
+                            self.touched.push(n);
+                        }
+                        list.push(k);
+                    }
+                }
+            }
+        }
+        // `None < Some`: the later of the two wins.
+        self.wild.iter_mut().for_each(|w| *w = (*w).max(wild_all));
+    }
+
+    /// The reward of each observation `o` after the move to `s2`, at index `o`.
+    pub fn row(&mut self, s2: usize) -> &[f64] {
+        let rewards = &self.pomdp.rewards;
+        let value = |k: Option<usize>| k.map_or(0.0, |k| rewards[self.entries[k]].value);
+        let specific = self.by_next.get(s2).map_or(&[][..], Vec::as_slice);
+        let mut specific_all = None;
+        let last = &mut self.last;
+        last.copy_from_slice(&self.wild);
+        for &k in specific {
+            match rewards[self.entries[k]].observation {
+                None => specific_all = Some(k),
+                Some(o) => {
+                    if let Some(l) = last.get_mut(o) {
+                        *l = (*l).max(Some(k));
+                    }
+                }
+            }
+        }
+        for (slot, l) in self.row.iter_mut().zip(last.iter()) {
+            *slot = value((*l).max(specific_all));
+        }
+        &self.row
+    }
+}
