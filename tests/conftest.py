@@ -2,9 +2,17 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
+from hypothesis import HealthCheck, settings
 
 import cehmm
+
+# Hypothesis' example counts: small in CI, many with HYPOTHESIS_PROFILE=long (docs/testing.md).
+settings.register_profile("ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("long", max_examples=5000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 #: Settings of a short optimisation (about a millisecond per iteration).
 SMALL = dict(samples=200, max_iterations=8, eval_episodes=200, progress=False)

@@ -1,22 +1,18 @@
 """Property tests of the Python API's arguments (Hypothesis): whatever values and types are passed,
 ``optimize``, ``optimize_controller``, ``Policy.evaluate``, ``World`` and ``PythonWorld`` either work or raise
 ``TypeError`` or :class:`cehmm.CehmmError`, naming the argument; never a panic, a crash, or another
-exception. The example count is kept small for CI; ``HYPOTHESIS_PROFILE=long`` runs many more."""
+exception. The example count is kept small for CI; ``HYPOTHESIS_PROFILE=long`` runs many more (profiles:
+conftest.py)."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import cehmm
-
-settings.register_profile("ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-settings.register_profile("long", max_examples=5000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 TIGER = Path(__file__).resolve().parents[1] / "data" / "pomdp" / "tiger.95.POMDP"
 

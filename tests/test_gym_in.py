@@ -11,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium import spaces
+from worlds import Shows
 
 import cehmm
 import cehmm.gym
@@ -146,3 +147,82 @@ def test_a_memory_task_from_popgym_is_optimised() -> None:
     assert result.iterations == 3 and -1.0 <= result.evaluation.mean <= 1.0
     assert len(result.policy.rollout(world)) == 51
     assert result.policy.world["id"] == "popgym-RepeatPreviousEasy-v0"
+
+
+@pytest.mark.parametrize(
+    ("space", "bad"),
+    [
+        (spaces.Discrete(3), 1.7),
+        (spaces.Discrete(3), "2"),
+        (spaces.Discrete(3), 3),
+        (spaces.Discrete(3, start=1), 0),
+        (spaces.MultiDiscrete([3, 4]), np.array([1])),
+        (spaces.MultiDiscrete([3, 4]), np.array([1, 4])),
+        (spaces.MultiBinary(3), np.array([0, 2, 1])),
+        (spaces.Tuple((spaces.Discrete(2), spaces.Discrete(2))), (0, 1, 1)),
+        (spaces.Tuple((spaces.Discrete(2), spaces.Discrete(2))), (0, 2)),
+        (spaces.Tuple((spaces.Discrete(2),)), None),
+    ],
+)
+def test_an_observation_outside_its_space_is_named(space: gym.Space, bad: object) -> None:
+    # It was cast (1.7 -> 1, '2' -> 2), broadcast ([1] -> 5) or raised numpy's own errors.
+    policy = cehmm.Policy.uniform(cehmm.PythonWorld(Shows(space, space.sample()), horizon=3), [1])
+    with pytest.raises(cehmm.WorldError, match=r"observation .* is not in the space") as raised:
+        policy.evaluate(cehmm.PythonWorld(Shows(space, bad), horizon=3), episodes=2)
+    assert any("episode 0 (evaluate), reset" in note for note in raised.value.__notes__)
+
+
+def test_a_tuple_of_nothing_is_one_observation() -> None:
+    world = cehmm.PythonWorld(Shows(spaces.Tuple(()), ()), horizon=3)
+    assert world.n_observations == 1
+    assert cehmm.Policy.uniform(world, [1]).evaluate(world, episodes=4).mean == 1
+
+
+class Countdown(gym.Env):
+    """Observes the steps left (Discrete(4)); reward 1 for action 1; ends after 1 to 3 steps
+    (drawn at reset)."""
+
+    observation_space, action_space = spaces.Discrete(4), spaces.Discrete(2)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[int, dict]:
+        super().reset(seed=seed)
+        self.left = int(self.np_random.integers(1, 4))
+        return self.left, {}
+
+    def step(self, action: object) -> tuple[int, float, bool, bool, dict]:
+        self.left -= 1
+        return self.left, float(action == 1), self.left == 0, False, {}
+
+
+def test_vector_environments_in_every_autoreset_mode_and_with_tuple_observations() -> None:
+    # AutoresetMode.DISABLED failed on Gymnasium's assertion (a sub-environment that had ended
+    # was stepped again while others went on): its ended ones are now reset at once. The same
+    # episodes in every mode.
+    policy = cehmm.Policy.random(cehmm.PythonWorld(Countdown(), horizon=5), [2], seed=3)
+    evaluations = []
+    for mode in gym.vector.AutoresetMode:
+        vector = gym.vector.SyncVectorEnv([Countdown] * 4, autoreset_mode=mode)
+        evaluations.append(policy.evaluate(cehmm.PythonWorld(vector, horizon=5), episodes=40, seed=1))
+    assert evaluations[0].std > 0 and all(e == evaluations[0] for e in evaluations), evaluations
+    # Blackjack's observations are a Tuple: a TypeError from Gymnasium's iterate before.
+    blackjack = gym.make_vec("Blackjack-v1", num_envs=4, vectorization_mode="sync")
+    world = cehmm.PythonWorld(blackjack, horizon=10)
+    assert world.n_observations == 32 * 11 * 2
+    evaluation = cehmm.Policy.uniform(world, [1]).evaluate(world, episodes=200)
+    assert -1 <= evaluation.mean <= 1
+
+
+def test_an_environments_reward_and_flags_are_checked_as_any_worlds() -> None:
+    class Says(Countdown):
+        def __init__(self, reward: object, terminated: object) -> None:
+            self.reward, self.terminated = reward, terminated
+
+        def step(self, action: object) -> tuple[int, object, object, bool, dict]:
+            left, _, _, truncated, info = super().step(action)
+            return left, self.reward, self.terminated, truncated, info
+
+    policy = cehmm.Policy.uniform(cehmm.PythonWorld(Countdown(), horizon=5), [1])
+    with pytest.raises(cehmm.WorldError, match="done"):
+        policy.evaluate(cehmm.PythonWorld(Says(0.0, "False"), horizon=5), episodes=2)
+    with pytest.raises(cehmm.WorldError, match="reward"):
+        policy.evaluate(cehmm.PythonWorld(Says(1 + 0j, False), horizon=5), episodes=2)

@@ -293,3 +293,68 @@ def test_a_world_that_recurses_deeply_runs_on_the_engine_threads() -> None:
     out = subprocess.run([sys.executable, "-c", DEEP_WORLD], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip() == "3.0"
+
+
+class Values:
+    """Returns the given observation and reward from every step (episode protocol)."""
+
+    n_observations, n_decisions, horizon = 3, 2, 4
+
+    def __init__(self, observation: object = 1, reward: object = 0.0) -> None:
+        self.observation, self.reward = observation, reward
+
+    def reset(self, seed: int) -> int:
+        return 0
+
+    def step(self, decision: int) -> tuple[object, object, bool]:
+        return self.observation, self.reward, False
+
+
+class BatchValues:
+    """Returns `observations(n)` and `rewards(n)` from every step (batched protocol)."""
+
+    batched = True
+    n_observations, n_decisions, horizon = 3, 2, 4
+    max_batch = 8
+
+    def __init__(self, observations: object = None, rewards: object = None) -> None:
+        self.observations = observations or (lambda n: np.ones(n, dtype=np.int64))
+        self.rewards = rewards or (lambda n: np.zeros(n))
+
+    def reset(self, n: int, seed: int) -> np.ndarray:
+        self.n = n
+        return np.zeros(n, dtype=np.int64)
+
+    def step(self, decisions: np.ndarray) -> tuple[object, object, np.ndarray]:
+        return self.observations(self.n), self.rewards(self.n), np.zeros(self.n, dtype=bool)  # type: ignore[operator]
+
+
+def test_both_protocols_take_and_refuse_the_same_values() -> None:
+    # One rule for both: observations are ints (not bools, floats or strings), rewards real
+    # numbers (bools count as 0 and 1; a complex is refused, even with no imaginary part).
+    policy = cehmm.Policy.uniform(Values(), [1])
+    evaluate = lambda world: policy.evaluate(world, episodes=8, seed=0)  # noqa: E731
+    for reward in [1, 1.5, np.float32(2), np.int8(3), True]:
+        assert evaluate(Values(reward=reward)).mean == 4 * float(reward)
+        assert evaluate(BatchValues(rewards=lambda n, r=reward: np.full(n, r))).mean == 4 * float(reward)
+    for reward in [1 + 0j, np.complex128(1), "1"]:
+        with pytest.raises(cehmm.WorldError, match="reward"):
+            evaluate(Values(reward=reward))
+        with pytest.raises(cehmm.WorldError, match="reward"):
+            evaluate(BatchValues(rewards=lambda n, r=reward: np.full(n, r)))
+    for observation in [True, np.bool_(True), 1.0, "1"]:
+        with pytest.raises(cehmm.WorldError, match="observation"):
+            evaluate(Values(observation=observation))
+        with pytest.raises(cehmm.WorldError, match="observation"):
+            evaluate(BatchValues(observations=lambda n, o=observation: np.full(n, o)))
+
+
+def test_a_batch_may_be_a_column_of_a_larger_array() -> None:
+    # Valid values whatever their strides: a column of a 2-D array is not contiguous.
+    policy = cehmm.Policy.random(BatchValues(), [2], seed=1)
+    columns = BatchValues(
+        observations=lambda n: np.tile(np.arange(n) % 3, (2, 1)).T[:, 1],
+        rewards=lambda n: np.tile(np.arange(n, dtype=float), (3, 1)).T[:, 2],
+    )
+    contiguous = BatchValues(observations=lambda n: np.arange(n) % 3, rewards=lambda n: np.arange(n, dtype=float))
+    assert policy.evaluate(columns, episodes=20, seed=3) == policy.evaluate(contiguous, episodes=20, seed=3)

@@ -4,7 +4,9 @@ sampling, and the errors a bad or changed file gives."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -153,3 +155,14 @@ def test_tigers_five_node_controller_reaches_the_sarsop_value(tiger: cehmm.Pomdp
         cehmm.Policy.uniform(tiger, [2]).graph(form="pg")
     stochastic = cehmm.Policy.uniform(tiger, [2]).graph(form="json")
     assert len(stochastic["nodes"]) == 2 and stochastic["nodes"][0]["decision"]["listen"] == pytest.approx(1 / 3)
+
+
+@pytest.mark.skipif(sys.platform == "win32" or sys.getfilesystemencoding() != "utf-8", reason="POSIX byte paths")
+def test_a_path_that_is_not_utf8_is_refused_by_name(tmp_path: Path) -> None:
+    # It raised UnicodeEncodeError (as a str with surrogates) or TypeError (as bytes); a world's
+    # parameters are recorded as text, so such a path is refused, as in the CLI.
+    raw = os.fsencode(tmp_path) + b"/tiger\xff.pomdp"
+    shutil.copy(TIGER, raw)
+    for path in [os.fsdecode(raw), raw, Path(os.fsdecode(raw))]:
+        with pytest.raises(cehmm.InvalidArgumentError, match=r"tiger\\udcff.pomdp' is not valid UTF-8"):
+            cehmm.PomdpWorld.from_file(path)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+import gymnasium as gym
 import numpy as np
 
 
@@ -22,3 +25,19 @@ class Corridor:
             move = -move
         self.cell = min(5, max(0, self.cell + move))
         return self.cell, float(self.cell == 5), False
+
+
+class Shows(gym.Env):
+    """Observes `value` in `space` from reset and from its one step (reward 1)."""
+
+    action_space = gym.spaces.Discrete(2)
+
+    def __init__(self, space: gym.Space, value: Any) -> None:
+        self.observation_space, self.value = space, value
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[Any, dict]:
+        super().reset(seed=seed)
+        return self.value, {}
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        return self.value, 1.0, True, False, {}

@@ -51,7 +51,7 @@ class PomdpWorld(World):
         **params: Any,
     ) -> None:
         self._core = _core.World(
-            self.registered_name, file=os.fspath(file), horizon=horizon, discount=discount, reward=reward, **params
+            self.registered_name, file=os.fsdecode(file), horizon=horizon, discount=discount, reward=reward, **params
         )
 
     @classmethod

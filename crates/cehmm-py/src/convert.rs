@@ -128,7 +128,9 @@ pub fn to_json(name: &str, value: &Bound<'_, PyAny>) -> PyResult<Value> {
         return Ok(Value::Bool(value.extract()?));
     }
     if let Ok(s) = value.cast::<PyString>() {
-        return Ok(Value::String(s.to_cow()?.into_owned()));
+        // A str that is not UTF-8 (a path's undecodable bytes, as os.fsdecode gives them).
+        let text = s.to_cow().map_err(|_| raise(Error::invalid(name, ceworld::files::not_utf8(&shown(value)))))?;
+        return Ok(Value::String(text.into_owned()));
     }
     if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
         let items: Vec<Bound<'_, PyAny>> = value.extract()?;

@@ -117,12 +117,35 @@ impl PyBatch {
         Error::World(message)
     }
 
-    /// `value` as `n` int64 numbers.
+    /// `value` as `n` int64 numbers: ints (not bools, floats or strings), as one episode's
+    /// observation must be.
     fn ints(py: Python<'_>, what: &str, value: &Bound<'_, PyAny>, out: &mut [i64]) -> Result<(), String> {
-        let array =
-            array(py, value, "int64", "safe").map_err(|_| format!("{what} {} (expected ints)", short(value)))?;
+        let expected = || format!("{what} {} (expected ints)", short(value));
+        if dtype_kind(py, value).as_deref() == Some("b") {
+            return Err(expected());
+        }
+        let array = array(py, value, "int64", "safe").map_err(|_| expected())?;
         copy(what, &array, out)
     }
+}
+
+/// The kind of `numpy.asarray(value).dtype` (`"b"` bool, `"i"` int, `"c"` complex, ...).
+fn dtype_kind(py: Python<'_>, value: &Bound<'_, PyAny>) -> Option<String> {
+    let array = py.import("numpy").ok()?.call_method1("asarray", (value,)).ok()?;
+    array.getattr("dtype").ok()?.getattr("kind").ok()?.extract().ok()
+}
+
+/// A real number (Python's or numpy's, a bool as 0 or 1; not a complex, even of imaginary part
+/// 0, nor a str), as one step's reward must be.
+fn scalar_real(value: &Bound<'_, PyAny>) -> Option<f64> {
+    let type_name = value.get_type().name().map(|n| n.to_string()).unwrap_or_default();
+    if value.is_instance_of::<pyo3::types::PyComplex>()
+        || type_name.starts_with("complex")
+        || type_name == "clongdouble"
+    {
+        return None;
+    }
+    value.extract::<f64>().ok()
 }
 
 /// An int (Python's or numpy's; not a bool, a float or a str).
@@ -186,11 +209,12 @@ fn copy<T: numpy::Element + Copy>(what: &str, array: &Bound<'_, PyAny>, out: &mu
         .cast::<PyArray1<T>>()
         .map_err(|_| format!("{what} of shape {} (expected {} numbers)", shape_of(array), out.len()))?;
     let view = array.readonly();
-    let slice = view.as_slice().map_err(|e| e.to_string())?;
-    if slice.len() != out.len() {
-        return Err(format!("{what}: {} values (expected {}, one per episode)", slice.len(), out.len()));
+    let values = view.as_array();
+    if values.len() != out.len() {
+        return Err(format!("{what}: {} values (expected {}, one per episode)", values.len(), out.len()));
     }
-    out.copy_from_slice(slice);
+    // Whatever the strides (a column of a 2-D array is a valid batch).
+    out.iter_mut().zip(values.iter()).for_each(|(o, v)| *o = *v);
     Ok(())
 }
 
@@ -262,14 +286,15 @@ impl BatchWorld for PyBatch {
                     Error::World(format!("step returned {what} {} (expected {expected})", short(v)))
                 };
                 out.observations[0] = scalar_int(&obs).ok_or_else(|| bad("observation", &obs, "an int"))?;
-                out.rewards[0] = reward.extract::<f64>().map_err(|_| bad("reward", &reward, "a number"))?;
+                out.rewards[0] = scalar_real(&reward).ok_or_else(|| bad("reward", &reward, "a real number"))?;
                 let flag = |v: &Bound<'_, PyAny>| scalar_flag(v).ok_or_else(|| bad("done", v, "a bool"));
                 out.done[0] = flag(&terminated)? || truncated.as_ref().map(flag).transpose()?.unwrap_or(false);
                 return Ok(());
             }
             PyBatch::ints(py, "step returned observation", &obs, out.observations).map_err(Error::World)?;
-            let rewards = array(py, &reward, "float64", "same_kind")
-                .map_err(|_| Error::World(format!("step returned reward {} (expected numbers)", short(&reward))))?;
+            let rewards = array(py, &reward, "float64", "same_kind").map_err(|_| {
+                Error::World(format!("step returned reward {} (expected real numbers)", short(&reward)))
+            })?;
             copy("step returned rewards", &rewards, out.rewards).map_err(Error::World)?;
             let flags = |v: &Bound<'_, PyAny>, out: &mut [bool]| -> ceworld::Result<()> {
                 batch_flags(py, "step returned done", v, out).map_err(Error::World)

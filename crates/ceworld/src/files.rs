@@ -172,6 +172,12 @@ pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> 
     Ok(bytes)
 }
 
+/// Why `shown`, a path that is not UTF-8, is refused where a world's parameters record it (they
+/// are JSON text: the path would become another name, and "no such file").
+pub fn not_utf8(shown: &str) -> String {
+    format!("{shown} is not valid UTF-8 (expected a path written in UTF-8: rename or link the file)")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -172,16 +172,21 @@ impl<B: BatchWorld> Lockstep<B> {
         let mut alive = vec![true; n];
         let mut step_rewards = vec![0.0f64; n * horizon];
         lengths.fill(0);
-        self.check_interrupt()?;
-        world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
-        for t in 0..horizon {
-            self.check_interrupt()?;
+        // Every observation of a running episode is checked, the one that comes with its end too
+        // (unused, but a value out of range is the world's bug): `call` is 0 for reset, t for step t.
+        let check_observations = |observations: &[i64], alive: &[bool], call: usize| -> Result<()> {
             for (i, &y) in observations.iter().enumerate() {
-                // Returned by the call before this step: reset (t = 0) or step t.
                 if alive[i] && !(0..n_obs as i64).contains(&y) {
-                    return Err(place(first + i, t).error(&format!("observation {y} (expected 0..{n_obs})")));
+                    return Err(place(first + i, call).error(&format!("observation {y} (expected 0..{n_obs})")));
                 }
             }
+            Ok(())
+        };
+        self.check_interrupt()?;
+        world.reset(world_seed, &mut observations).map_err(|e| place(first, 0).wrap(&e))?;
+        check_observations(&observations, &alive, 0)?;
+        for t in 0..horizon {
+            self.check_interrupt()?;
             records
                 .par_chunks_mut(stride)
                 .zip(slots.par_iter_mut())
@@ -200,6 +205,7 @@ impl<B: BatchWorld> Lockstep<B> {
                 });
             let out = StepOut { observations: &mut observations, rewards: &mut rewards, done: &mut done };
             world.step(&decisions, out).map_err(|e| place(first, t + 1).wrap(&e))?;
+            check_observations(&observations, &alive, t + 1)?;
             for i in 0..n {
                 if !alive[i] {
                     continue;

@@ -216,10 +216,7 @@ pub(crate) fn world_from(args: &WorldArgs) -> Result<AnyWorld> {
     if let Some(p) = &args.pomdp
         && p.to_str().is_none()
     {
-        return Err(Error::invalid(
-            "--pomdp",
-            format!("{} is not valid UTF-8 (expected a path written in UTF-8: rename or link the file)", p.display()),
-        ));
+        return Err(Error::invalid("--pomdp", ceworld::files::not_utf8(&p.display().to_string())));
     }
     // JSON has no NaN or infinity: such a value would become null, and silently no discount.
     if let Some(d) = args.discount
