@@ -200,6 +200,23 @@ impl PomdpWorld {
     }
 }
 
+/// The `(s, a, s', o)` with `T(s'|s,a) > 0` and `O(o|a,s') > 0`: the outcomes a world stores (at
+/// most; a product of two tiny probabilities may round to 0 and not be stored).
+fn count_outcomes(pomdp: &Pomdp) -> u64 {
+    let (n_s, n_a, n_o) = (pomdp.num_states(), pomdp.num_actions(), pomdp.num_observations());
+    let seen: Vec<u64> =
+        pomdp.observation.chunks(n_o.max(1)).map(|row| row.iter().filter(|&&p| p > 0.0).count() as u64).collect();
+    let mut total = 0u64;
+    for a in 0..n_a {
+        for s in 0..n_s {
+            let row = &pomdp.transition[(a * n_s + s) * n_s..(a * n_s + s + 1) * n_s];
+            total +=
+                row.iter().zip(&seen[a * n_s..(a + 1) * n_s]).filter(|(t, _)| **t > 0.0).map(|(_, k)| k).sum::<u64>();
+        }
+    }
+    total
+}
+
 impl Tables {
     fn new(pomdp: Pomdp, gamma: f64) -> Result<Tables> {
         let (n_s, n_a, n_o) = (pomdp.num_states(), pomdp.num_actions(), pomdp.num_observations());
@@ -211,7 +228,23 @@ impl Tables {
         let mut scratch = AliasScratch::default();
         let mut start_alias = vec![AliasEntry::default(); n_s];
         build_alias(&start, &mut start_alias, &mut scratch);
-        let (mut offsets, mut next, mut prob, mut reward) = (vec![0], Vec::new(), Vec::new(), Vec::new());
+        // The outcomes counted (at most: a product may round to 0) and checked against the memory
+        // before any is stored.
+        let total = count_outcomes(&pomdp);
+        if total > MAX_OUTCOMES as u64 {
+            return Err(Error::invalid(
+                "pomdp",
+                format!("{total} (s', o) outcomes of positive probability (at most {MAX_OUTCOMES})"),
+            ));
+        }
+        let bytes = total * (size_of::<(u32, u32)>() + 2 * size_of::<f64>() + size_of::<AliasEntry>()) as u64;
+        let what = format!("the {total} outcomes (s', o) of a model with {n_s} states and {n_a} actions");
+        crate::memory::check_memory(&what, bytes, crate::memory::available_memory())?;
+        let total = total as usize;
+        let mut offsets = Vec::with_capacity(n_s * n_a + 1);
+        offsets.push(0);
+        let (mut next, mut prob, mut reward) =
+            (Vec::with_capacity(total), Vec::with_capacity(total), Vec::with_capacity(total));
         // The reward of each outcome: the last matching entry in file order.
         let mut rewards = pomdp.outcome_rewards();
         for s in 0..n_s {
@@ -230,12 +263,6 @@ impl Tables {
                             prob.push(p);
                             reward.push(sign * r);
                         }
-                    }
-                    if next.len() > MAX_OUTCOMES {
-                        return Err(Error::invalid(
-                            "pomdp",
-                            format!("more than {MAX_OUTCOMES} (s', o) outcomes of positive probability"),
-                        ));
                     }
                 }
                 offsets.push(next.len());
