@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import resource
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -180,17 +181,65 @@ def test_a_checkpoint_that_cannot_be_written_does_not_cost_the_result(tmp_path: 
     assert not folder.exists()
 
 
-@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
-def test_devices_and_fifos_are_refused_on_read_at_once(tmp_path: Path) -> None:
-    fifo = tmp_path / "fifo"
+class Hang(Exception):
+    """An entry point that did not return within its time."""
+
+
+def _path_kinds(tmp: Path) -> dict[str, str]:
+    """Paths that are not a regular file one may read or write, by kind."""
+    fifo = tmp / "fifo"
     os.mkfifo(fifo)
-    link = tmp_path / "link"
-    link.symlink_to("/dev/zero")
-    for path in ["/dev/zero", str(fifo), str(link)]:
-        with pytest.raises(cehmm.InvalidArgumentError, match="not a regular file"):
-            cehmm.Policy.load(path)
-        with pytest.raises(cehmm.InvalidArgumentError, match="not a regular file"):
-            cehmm.PomdpWorld.from_file(path)
+    (tmp / "dir").mkdir()
+    (tmp / "zero-link").symlink_to("/dev/zero")
+    (tmp / "fifo-link").symlink_to(fifo)
+    return {
+        "device": "/dev/zero",
+        "fifo": str(fifo),
+        "link to a device": str(tmp / "zero-link"),
+        "link to a fifo": str(tmp / "fifo-link"),
+        "directory": str(tmp / "dir"),
+        "missing folder": str(tmp / "missing" / "file"),
+    }
+
+
+#: Every entry point that takes a path, reading or writing it.
+ENTRY_POINTS = {
+    "Policy.load": lambda p: cehmm.Policy.load(p),
+    "Policy.save": lambda p: cehmm.Policy.uniform(cehmm.TargetTracking(case=1), [2]).save(p),
+    "PomdpWorld.from_file": lambda p: cehmm.PomdpWorld.from_file(p),
+    "optimize(checkpoint, resume)": lambda p: cehmm.optimize(
+        cehmm.TargetTracking(case=1), checkpoint=p, resume=True, **FAST
+    ),
+    "optimize(checkpoint)": lambda p: cehmm.optimize(cehmm.TargetTracking(case=1), checkpoint=p, **FAST),
+    "optimize_controller(checkpoint, resume)": lambda p: cehmm.optimize_controller(
+        cehmm.TargetTracking(case=1), nodes=2, samples=10, max_iterations=1, checkpoint=p, resume=True, progress=False
+    ),
+    "QLearner.load": lambda p: cehmm.QLearner.load(p),
+}
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero and FIFOs")
+@pytest.mark.parametrize("entry", sorted(ENTRY_POINTS))
+def test_every_path_that_is_not_a_regular_file_is_refused_at_once(tmp_path: Path, entry: str) -> None:
+    # Devices were read to exhaustion and FIFOs blocked forever on open; each is now refused in
+    # well under a second, naming the path, with a CehmmError or the OSError of its errno.
+    def hang(signum: int, frame: object) -> None:
+        raise Hang(entry)
+
+    previous = signal.signal(signal.SIGALRM, hang)
+    try:
+        for kind, path in _path_kinds(tmp_path).items():
+            signal.setitimer(signal.ITIMER_REAL, 10.0)
+            try:
+                with pytest.raises((cehmm.CehmmError, OSError)) as raised:
+                    ENTRY_POINTS[entry](path)
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+            assert not isinstance(raised.value, cehmm.InternalError), (entry, kind, raised.value)
+            named = str(raised.value) + str(getattr(raised.value, "filename", ""))
+            assert path in named or os.path.dirname(path) in named, (entry, kind, raised.value)
+    finally:
+        signal.signal(signal.SIGALRM, previous)
 
 
 @pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_AS as Linux has it")

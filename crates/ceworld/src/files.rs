@@ -33,11 +33,7 @@ fn target(path: &Path) -> Result<PathBuf> {
             }
             Ok(meta) if meta.is_file() => return Ok(resolved),
             Ok(meta) => {
-                let kind = if meta.is_dir() { "a directory" } else { "not a regular file (a device, socket or pipe)" };
-                return Err(Error::invalid(
-                    "path",
-                    format!("{} is {kind} (expected a regular file to write, or a new name)", resolved.display()),
-                ));
+                return Err(not_regular("path", path, &resolved, &meta, "a regular file to write, or a new name"));
             }
         }
     }
@@ -145,10 +141,20 @@ pub fn open_regular(path: &Path, what: &str) -> Result<File> {
     let file = options.open(path).map_err(io)?;
     let meta = file.metadata().map_err(io)?;
     if !meta.is_file() {
-        let kind = if meta.is_dir() { "a directory" } else { "not a regular file (a device, socket or pipe)" };
-        return Err(Error::invalid(what, format!("{} is {kind} (expected a file to read)", path.display())));
+        let linked = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+        let resolved =
+            if linked { std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()) } else { path.into() };
+        return Err(not_regular(what, path, &resolved, &meta, "a file to read"));
     }
     Ok(file)
+}
+
+/// The refusal of `path` (the name the caller gave; `resolved`, where its links lead, is named
+/// too when it differs), which is a directory, a device, a socket or a pipe.
+fn not_regular(what: &str, path: &Path, resolved: &Path, meta: &std::fs::Metadata, expected: &str) -> Error {
+    let kind = if meta.is_dir() { "a directory" } else { "not a regular file (a device, socket or pipe)" };
+    let link = if resolved == path { String::new() } else { format!(" (a link to {})", resolved.display()) };
+    Error::invalid(what, format!("{}{link} is {kind} (expected {expected})", path.display()))
 }
 
 /// The bytes of `path` (a regular file: [`open_regular`]), refused when it holds more than
