@@ -163,8 +163,12 @@ def test_worlds_that_are_not_worlds_are_refused() -> None:
     with pytest.raises(TypeError, match=r"NoHorizon has no attribute 'horizon' \(pass horizon=...\)"):
         cehmm.PythonWorld(NoHorizon())
     assert cehmm.PythonWorld(NoHorizon(), horizon=4).horizon == 4
-    with pytest.raises(cehmm.InvalidArgumentError, match="discount: 0 "):
-        cehmm.PythonWorld(Corridor(), discount=0)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"discount: 1.5 \(expected 0 <= discount <= 1\)"):
+        cehmm.PythonWorld(Corridor(), discount=1.5)
+    # As in .pomdp files: a discount of 0 counts the first reward only.
+    assert (
+        cehmm.Policy.uniform(Corridor(), [1]).evaluate(cehmm.PythonWorld(Corridor(), discount=0), episodes=20).max <= 1
+    )
     with pytest.raises(cehmm.InvalidArgumentError, match="tiny observations: 0 "):
         cehmm.PythonWorld(type("Empty", (NoHorizon,), {"n_observations": 0})(), horizon=4, name="tiny")
     with pytest.raises(TypeError, match="apply to worlds written in Python"):

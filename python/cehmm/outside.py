@@ -68,7 +68,7 @@ class PythonWorld:
             environment's ``max_episode_steps``).
         score: the value of an episode from its ``(observations, decisions, rewards)``
             (default: the sum of the rewards, discounted).
-        discount: ``0 < discount <= 1``; step ``t`` (from 0) weighs ``discount ** t`` in the
+        discount: ``0 <= discount <= 1`` (as in ``.pomdp`` files); step ``t`` (from 0) weighs ``discount ** t`` in the
             default score.
         name: how errors and policy files name it (default: its class, or the environment id).
 

@@ -58,8 +58,8 @@ impl PyOutsideWorld {
         };
         let batch = if batched { count("batch", batch)? } else { 1 };
         let discount = real("discount", discount)?;
-        if !(discount > 0.0 && discount <= 1.0) {
-            return Err(raise(Error::invalid("discount", format!("{discount} (expected 0 < discount <= 1)"))));
+        if !(0.0..=1.0).contains(&discount) {
+            return Err(raise(Error::invalid("discount", format!("{discount} (expected 0 <= discount <= 1)"))));
         }
         let mut description = object("description", Some(description))?;
         description["name"] = Value::from(ceworld::episodes::outside::NAME);

@@ -182,8 +182,21 @@ fn a_tampered_checkpoint_is_refused_by_what_is_inconsistent() {
         ("the seconds", |c| c["seconds"] = (-1.0).into(), "seconds -1"),
         ("a finished run's best", |c| c["finished"][0]["result"]["best_iteration"] = 77.into(), "best iteration 77"),
     ];
+    // A file changed since it was written no longer matches its digest, whatever changed.
+    let mut c = saved.clone();
+    c["seconds"] = 12345.0.into();
+    std::fs::write(&*path, serde_json::to_vec(&c).unwrap()).unwrap();
+    match optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| Flow::Continue) {
+        Err(Error::CheckpointFormat { message, .. }) => {
+            assert!(message.contains("does not match its digest"), "{message}");
+        }
+        other => panic!("a changed file: {other:?}"),
+    }
+    // Without the digest (a file of an earlier engine, or one whose digest was made again), the
+    // state itself is checked.
     for (what, edit, needle) in edits {
         let mut c = saved.clone();
+        c.as_object_mut().unwrap().remove("digest").expect("a digest");
         edit(&mut c);
         std::fs::write(&*path, serde_json::to_vec(&c).unwrap()).unwrap();
         match optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {

@@ -184,6 +184,15 @@ fn a_discount_json_cannot_hold_is_refused_not_ignored() {
         let discount = format!("--discount={d}");
         fails_with(&["optimize", "--pomdp", "../../data/pomdp/tiger.95.POMDP", &discount], &["--discount"]);
     }
+    // The domain of a file's own `discount:` (0 to 1): 0 is taken as the file would take it.
+    fails_with(
+        &["optimize", "--pomdp", "../../data/pomdp/tiger.95.POMDP", "--discount", "1.5"],
+        &["0 <= discount <= 1"],
+    );
+    let out = temp("discount0.json");
+    let args = ["optimize", "--pomdp", "../../data/pomdp/tiger.95.POMDP", "--discount", "0", "--samples", "20"];
+    let run = ceworld(&[&args[..], &["--max-iterations", "1", "--quiet", "--out", out.to_str().unwrap()]].concat());
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
 }
 
 #[test]

@@ -164,3 +164,125 @@ fn damaged_q_tables() {
     let (refused, _) = fuzz("q-table", &good, header, |p| AnyLearner::load(p).map(|_| ()));
     assert!(refused > iterations() / 2);
 }
+
+/// Every leaf of a JSON document, as a path of keys and indices.
+fn leaves(value: &serde_json::Value, at: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    match value {
+        serde_json::Value::Object(map) => {
+            for (k, v) in map {
+                at.push(k.clone());
+                leaves(v, at, out);
+                at.pop();
+            }
+        }
+        serde_json::Value::Array(items) => {
+            for (i, v) in items.iter().enumerate() {
+                at.push(i.to_string());
+                leaves(v, at, out);
+                at.pop();
+            }
+        }
+        _ => out.push(at.clone()),
+    }
+}
+
+fn leaf<'a>(value: &'a mut serde_json::Value, path: &[String]) -> &'a mut serde_json::Value {
+    path.iter().fold(value, |v, key| match v {
+        serde_json::Value::Array(items) => &mut items[key.parse::<usize>().unwrap()],
+        other => &mut other[key.as_str()],
+    })
+}
+
+/// Another value of the same leaf: a number nudged, scaled, negated or extreme; a flag flipped;
+/// a string changed; or a value of another type.
+fn tampered(value: &serde_json::Value, rng: &mut Rng) -> serde_json::Value {
+    use serde_json::json;
+    match (value, rng.below(6)) {
+        (serde_json::Value::Number(n), k) => {
+            let x = n.as_f64().unwrap_or(0.0);
+            match k {
+                0 => json!(x + 1.0),
+                1 => json!(x - 1.0),
+                2 => json!(x * 2.0),
+                3 => json!(-x),
+                4 => json!(1e308),
+                _ => json!(n.as_u64().map_or(0, |u| u + 5)),
+            }
+        }
+        (serde_json::Value::Bool(b), _) => json!(!b),
+        (serde_json::Value::String(s), 0) => json!(format!("{s}x")),
+        (_, 1) => serde_json::Value::Null,
+        (_, 2) => json!("0"),
+        _ => json!([]),
+    }
+}
+
+#[test]
+fn tampered_checkpoints_are_refused_or_change_nothing() {
+    // A checkpoint taken mid-run, one leaf changed (a number, a flag, a name), then resumed:
+    // refused with a clean error, or a resume that ends with the uninterrupted run's policies
+    // and evaluation (a leaf that does not steer the run, such as seconds). A tamper accepted that
+    // changes the result is what this looks for: 17 of them were found by hand before.
+    let w = world();
+    let config =
+        CeConfig { samples: 60, max_iterations: Some(6), eval_episodes: 30, restarts: 2, ..CeConfig::default() };
+    let initial = random_policy(&w, &[3, 2], 1).unwrap();
+    let reference = optimize(&w, initial.clone(), &config, |_| Flow::Continue).unwrap();
+    let good = temp("mid.ckpt");
+    let checkpointing = Checkpointing { path: good.to_path_buf(), every: 1e9, resume: true };
+    let mut seen = 0;
+    let cut = optimize_with(&w, initial.clone(), &config, Some(&checkpointing), |_| {
+        seen += 1;
+        if seen == 9 { Flow::Stop } else { Flow::Continue }
+    })
+    .unwrap();
+    assert!(cut.interrupted());
+    let text = std::fs::read_to_string(&*good).unwrap();
+    let document: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let mut paths = Vec::new();
+    leaves(&document, &mut Vec::new(), &mut paths);
+    let mut rng = Rng(seed() ^ 0x7a11);
+    let (mut refused, mut harmless, mut changed) = (0, 0, Vec::new());
+    let path = temp("tampered.ckpt");
+    let tampered_checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    // The tables' entries are most leaves: three times in four, a leaf that is not one.
+    let (tables, others): (Vec<_>, Vec<_>) = paths.iter().partition(|p| p.iter().any(|k| k == "probs"));
+    for case in 0..iterations() / 3 {
+        let from = if rng.below(4) == 0 { &tables } else { &others };
+        let at = from[rng.below(from.len())];
+        let mut copy = document.clone();
+        let slot = leaf(&mut copy, at);
+        let new = tampered(slot, &mut rng);
+        let before = std::mem::replace(slot, new.clone());
+        std::fs::write(&*path, serde_json::to_vec(&copy).unwrap()).unwrap();
+        let result = catch_unwind(AssertUnwindSafe(|| {
+            optimize_with(&w, initial.clone(), &config, Some(&tampered_checkpointing), |_| Flow::Continue)
+        }))
+        .unwrap_or_else(|_| panic!("case {case}: a panic for {} = {new} (was {before})", at.join(".")));
+        match result {
+            Ok(r)
+                if (&r.policy, &r.last_policy, &r.evaluation, &r.restart_scores, r.best_iteration)
+                    == (
+                        &reference.policy,
+                        &reference.last_policy,
+                        &reference.evaluation,
+                        &reference.restart_scores,
+                        reference.best_iteration,
+                    ) =>
+            {
+                harmless += 1;
+            }
+            Ok(_) => changed.push(format!("{} = {new} (was {before})", at.join("."))),
+            Err(
+                Error::CheckpointFormat { .. }
+                | Error::CheckpointMismatch(_)
+                | Error::PolicyFormat { .. }
+                | Error::InvalidArgument { .. }
+                | Error::Mismatch(_),
+            ) => refused += 1,
+            Err(e) => panic!("case {case}: unexpected error kind for {}: {e}", at.join(".")),
+        }
+    }
+    println!("tampered checkpoints: {refused} refused, {harmless} harmless, {} changed the result", changed.len());
+    assert!(changed.is_empty(), "accepted and changed the result:\n{}", changed.join("\n"));
+}

@@ -139,14 +139,19 @@ impl<K: Resumable> Checkpoint<K> {
         if let Some(what) = K::non_finite(self.run.as_ref(), &self.finished) {
             return Err(Error::Internal(format!("checkpoint: {what} is not a finite number")));
         }
-        crate::files::write_atomic(path, |out| serde_json::to_writer(out, self).map_err(std::io::Error::other))
+        // The SHA-256 of the content rides along: a file changed since (damaged, or edited) is
+        // refused on load, whatever field it touched.
+        let mut doc = serde_json::to_value(self).map_err(|e| Error::Internal(format!("checkpoint: {e}")))?;
+        let digest = content_digest(&doc);
+        doc["digest"] = Value::String(digest);
+        crate::files::write_atomic(path, |out| serde_json::to_writer(out, &doc).map_err(std::io::Error::other))
     }
 
     /// Reads a checkpoint saved by [`Checkpoint::save`].
     pub fn load(path: &Path) -> Result<Checkpoint<K>> {
         let bytes = crate::files::read_limited(path, MAX_CHECKPOINT_BYTES, "checkpoint")?;
         let bad = |message: String| Error::CheckpointFormat { path: path.to_path_buf(), message };
-        let doc: Value =
+        let mut doc: Value =
             serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a checkpoint: invalid JSON ({e})")))?;
         match doc.get("format").and_then(Value::as_str) {
             Some(f) if f == K::FORMAT => {}
@@ -155,6 +160,15 @@ impl<K: Resumable> Checkpoint<K> {
         match doc.get("version").and_then(Value::as_u64) {
             Some(v) if v == K::VERSION => {}
             other => return Err(bad(format!("checkpoint version {other:?} (expected {})", K::VERSION))),
+        }
+        // Files of earlier versions of the engine carry no digest; one that does must match.
+        if let Some(stated) = doc.as_object_mut().and_then(|m| m.remove("digest")) {
+            let actual = content_digest(&doc);
+            if stated.as_str() != Some(actual.as_str()) {
+                return Err(bad(format!(
+                    "its content does not match its digest (it was changed after it was written: {stated} stated, {actual} found)"
+                )));
+            }
         }
         let checkpoint: Checkpoint<K> = serde_json::from_value(doc).map_err(|e| bad(e.to_string()))?;
         checkpoint.check_consistent().map_err(bad)?;
@@ -210,6 +224,12 @@ impl<K: Resumable> Checkpoint<K> {
 /// What to tell the user of a result whose last checkpoint failed with `error`.
 pub fn checkpoint_warning(error: &str) -> String {
     format!("the last checkpoint could not be written ({error}); the run went on")
+}
+
+/// The SHA-256 of a checkpoint's JSON (without its `"digest"`), written compactly with sorted
+/// keys.
+fn content_digest(doc: &Value) -> String {
+    crate::world::pomdp::sha256_hex(&serde_json::to_vec(doc).unwrap_or_default())
 }
 
 /// Keeps the checkpoint of a run and saves it when due.

@@ -135,9 +135,10 @@ impl PomdpWorld {
             return Err(Error::invalid("pomdp.horizon", format!("{} (expected 1..=1000000)", params.horizon)));
         }
         if let Some(g) = params.discount
-            && !(g > 0.0 && g <= 1.0)
+            && !(0.0..=1.0).contains(&g)
         {
-            return Err(Error::invalid("pomdp.discount", format!("{g} (expected 0 < discount <= 1)")));
+            // The domain of a file's own `discount:`.
+            return Err(Error::invalid("pomdp.discount", format!("{g} (expected 0 <= discount <= 1)")));
         }
         let bytes = crate::files::read_limited(Path::new(&params.file), MAX_FILE_BYTES, "pomdp.file")?;
         let digest = sha256_hex(&bytes);

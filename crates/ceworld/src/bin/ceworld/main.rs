@@ -222,7 +222,7 @@ pub(crate) fn world_from(args: &WorldArgs) -> Result<AnyWorld> {
     if let Some(d) = args.discount
         && !d.is_finite()
     {
-        return Err(Error::invalid("--discount", format!("{d} (expected 0 < discount <= 1)")));
+        return Err(Error::invalid("--discount", format!("{d} (expected 0 <= discount <= 1)")));
     }
     let options: [(&str, &str, Option<Value>); 4] = [
         ("--case", "case", args.case.map(Value::from)),
