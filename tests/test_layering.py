@@ -11,6 +11,7 @@ Layers, lowest first (a module is placed by the longest prefix of its path liste
 4. evaluation: ``evaluate``, ``exact``
 5. the optimisers: ``ce``, ``qlearn``
 6. what shows them: ``progress``, the crate root
+7. the command line: ``cli``
 
 The uses are read from the code (comments, doc links and ``#[cfg(test)]`` modules left out):
 ``crate::a::b`` paths, names re-exported at the crate root resolved to their module.
@@ -43,6 +44,7 @@ LAYERS: dict[str, int] = {
     "qlearn": 5,
     "progress": 6,
     "": 6,
+    "cli": 7,
     # The constants the crate root defines itself (its version): a fact below everything.
     "(root constant)": 0,
 }

@@ -6,7 +6,7 @@ numpy arrays: tables float64, rollouts int64, Q tables float32.
 """
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, TypedDict, final
 
 import numpy as np
@@ -28,6 +28,7 @@ __all__ = [
     "Rollout",
     "WindowEvaluation",
     "OptimizeOutcome",
+    "cli",
     "optimize",
     "ControllerOutcome",
     "Agent",
@@ -292,6 +293,7 @@ class OptimizeOutcome:
     @property
     def seconds(self) -> float: ...
 
+def cli(args: Sequence[str | os.PathLike[str]]) -> int: ...
 def optimize(
     world: World | OutsideWorld,
     initial: Policy,

@@ -1,8 +1,9 @@
-"""The ``cehmm`` console script: ``cehmm SUBCOMMAND [ARGS...]``.
+"""The ``cehmm`` console script: ``cehmm COMMAND [ARGS...]``.
 
-Subcommands:
-    reproduce   run the paper's results table and write the report (:mod:`cehmm.reproduce`)
-    benchmarks  CE controllers on every ``.pomdp`` file, against SARSOP (:mod:`cehmm.benchmarks`)
+The engine's command line (``optimize``, ``evaluate``, ``show``, ``controller``, ``optimum``,
+``qlearn``, ``qlearn-eval``) is the one the ``ceworld`` binary runs, compiled into the package
+(no second copy of its options); ``reproduce`` and ``benchmarks`` are the package's own
+(:mod:`cehmm.reproduce`, :mod:`cehmm.benchmarks`).
 """
 
 from __future__ import annotations
@@ -10,22 +11,28 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-USAGE = """usage: cehmm SUBCOMMAND [ARGS...]
+from . import _core
 
-subcommands:
-  reproduce   reproduce the paper's results table (model §5) and write the report
-              (cehmm reproduce --help for its options)
-  benchmarks  learn controllers for every .pomdp file of data/pomdp and write
-              docs/benchmarks.md (cehmm benchmarks --help for its options)
-"""
+#: The package's own commands (written in Python), with what they do.
+PYTHON_COMMANDS = {
+    "reproduce": "reproduce the paper's results table (model §5) and write the report",
+    "benchmarks": "learn controllers for every .pomdp file of data/pomdp and write docs/benchmarks.md",
+}
+
+USAGE = (
+    "usage: cehmm COMMAND [ARGS...]   (cehmm COMMAND --help for its options)\n\n"
+    "commands of the engine: optimize, evaluate, show, controller, optimum, qlearn, qlearn-eval\n"
+    "  (cehmm --help lists them with what they do)\n"
+    "commands of the package:\n" + "".join(f"  {name:<11} {what}\n" for name, what in PYTHON_COMMANDS.items())
+)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Dispatches to a subcommand's ``main``; returns the exit status."""
+    """Runs a command; returns the exit status."""
     args = list(sys.argv[1:] if argv is None else argv)
-    if not args or args[0] in ("-h", "--help", "help"):
-        print(USAGE, end="")
-        return 0 if args else 2
+    if not args:
+        print(USAGE, end="", file=sys.stderr)
+        return 2
     command, rest = args[0], args[1:]
     if command == "reproduce":
         from . import reproduce
@@ -35,8 +42,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         from . import benchmarks
 
         return benchmarks.main(rest)
-    print(f"cehmm: unknown subcommand {command!r}\n\n{USAGE}", end="", file=sys.stderr)
-    return 2
+    # The engine writes to the process's own stdout and stderr: what Python buffered goes first.
+    sys.stdout.flush()
+    sys.stderr.flush()
+    status = _core.cli(args)
+    if command in ("-h", "--help", "help"):
+        print("\n" + USAGE, end="")
+    return status
 
 
 if __name__ == "__main__":

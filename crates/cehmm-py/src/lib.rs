@@ -14,6 +14,7 @@
 #![allow(clippy::needless_pass_by_value)] // pyo3 extracts arguments by value
 #![allow(clippy::redundant_closure_for_method_calls)] // `Python::attach` needs a closure, not a path
 
+mod cli;
 mod controller;
 mod convert;
 mod defaults;
@@ -32,6 +33,8 @@ use pyo3::prelude::*;
 /// `cehmm._core`: the compiled engine; use the `cehmm` package instead.
 #[pymodule(gil_used = false)]
 mod _core {
+    #[pymodule_export]
+    use super::cli::cli;
     #[pymodule_export]
     use super::controller::{PyControllerOutcome, optimize_controller};
     #[pymodule_export]

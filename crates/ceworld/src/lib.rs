@@ -15,6 +15,8 @@
 //! ```
 
 pub mod ce;
+#[cfg(feature = "cli")]
+pub mod cli;
 pub mod control;
 pub mod episodes;
 pub mod error;

@@ -373,3 +373,12 @@ fn a_checkpoint_that_cannot_be_written_does_not_cost_the_result() {
     assert_eq!(doc["provenance"]["iterations"], 30);
     assert!(!dir.exists());
 }
+
+#[test]
+fn defaults_are_shown_as_they_are_written() {
+    // `[default: 16 16]` was shown where only `16,16` is accepted.
+    let out = ceworld(&["optimize", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && help.contains("[default: 16,16]"), "{help}");
+    fails_with(&["optimize", "--levels", "16 16"], &["--levels", "expected sizes separated by commas"]);
+}

@@ -6,9 +6,9 @@ use std::time::Instant;
 
 use serde_json::Value;
 
-use ceworld::progress::LiveLine;
-use ceworld::qlearn::{AnyLearner, KnownState, PAPER_REFERENCE, Ties, evaluate_policy_windows, percent};
-use ceworld::{
+use crate::progress::LiveLine;
+use crate::qlearn::{AnyLearner, KnownState, PAPER_REFERENCE, Ties, evaluate_policy_windows, percent};
+use crate::{
     AnyWorld, Error, Flow, PolicyFile, QConfig, QLearner, Result, WindowConfig, WindowReport, thread_pool, with_learner,
 };
 
@@ -69,10 +69,10 @@ pub(crate) struct QlearnArgs {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Discount gamma in [0, 1).
-    #[arg(long, default_value_t = ceworld::qlearn::GAMMA)]
+    #[arg(long, default_value_t = crate::qlearn::GAMMA)]
     gamma: f64,
     /// Learning rate alpha in (0, 1].
-    #[arg(long, default_value_t = ceworld::qlearn::ALPHA)]
+    #[arg(long, default_value_t = crate::qlearn::ALPHA)]
     alpha: f64,
     /// How greedy ties are broken, in learning and in the evaluated greedy policy: "random"
     /// (uniform among the best actions) or "lowest" (the lowest index).
@@ -85,7 +85,7 @@ pub(crate) struct QlearnArgs {
     #[arg(long, value_name = "FILE")]
     checkpoint: Option<PathBuf>,
     /// Seconds between two checkpoints.
-    #[arg(long, default_value_t = ceworld::qlearn::CHECKPOINT_EVERY, value_name = "SECONDS")]
+    #[arg(long, default_value_t = crate::qlearn::CHECKPOINT_EVERY, value_name = "SECONDS")]
     checkpoint_every: f64,
     /// Continue the run saved in the checkpoint file.
     #[arg(long, conflicts_with = "overwrite")]
@@ -175,7 +175,7 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
     let mut learner = open_learner(args, world_from(&args.world)?, config, &checkpoint)?;
     let interrupted = with_learner!(&mut learner, q => train(args, q, &checkpoint))?;
     if interrupted {
-        println!("continue with: ceworld qlearn --resume --checkpoint {} ...", checkpoint.display());
+        println!("continue with: {} qlearn --resume --checkpoint {} ...", super::program(), checkpoint.display());
     } else if !args.no_eval {
         let pool = thread_pool(args.windows.threads)?;
         let report = pool.install(|| {
@@ -194,7 +194,8 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
     super::stop::install();
     if !args.quiet {
         eprintln!(
-            "ceworld qlearn: {}, {} states × {} actions (f32, {:.2} GiB), gamma {}, alpha {}, epsilon = min(1, 1/ln t), {} ties, seed {}; from {} to {} updates; checkpoint {} every {}s",
+            "{} qlearn: {}, {} states × {} actions (f32, {:.2} GiB), gamma {}, alpha {}, epsilon = min(1, 1/ln t), {} ties, seed {}; from {} to {} updates; checkpoint {} every {}s",
+            super::program(),
             learner.world().to_json(),
             learner.table().n_states(),
             learner.table().n_actions(),
@@ -223,7 +224,7 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
         if !outcome.interrupted {
             learner.save(&args.out)?;
         }
-        crate::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
+        crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
     } else if outcome.checkpoint_error.is_some() {
         // The checkpoint is the result: one more try, its error the run's.
         learner.save(&args.out)?;
@@ -309,7 +310,7 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
             .map(|(name, r)| serde_json::json!({ "policy": name, "reference": args.windows.reference, "report": r }))
             .collect();
         let text = serde_json::to_string_pretty(&doc).expect("reports serialise");
-        ceworld::files::write_atomic(out, |f| std::io::Write::write_all(f, text.as_bytes()))?;
+        crate::files::write_atomic(out, |f| std::io::Write::write_all(f, text.as_bytes()))?;
     }
     Ok(())
 }

@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use ceworld::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller_with};
-use ceworld::progress::{LiveLine, Progress};
-use ceworld::{Flow, Result};
+use crate::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller_with};
+use crate::progress::{LiveLine, Progress};
+use crate::{Flow, Result};
 
-use crate::{CheckpointArgs, WorldArgs, stop, world_from};
+use crate::cli::{CheckpointArgs, WorldArgs, stop, world_from};
 
 #[derive(clap::Args)]
 pub(crate) struct ControllerArgs {
@@ -54,7 +54,7 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     };
     config.validate()?;
     // The result is not lost to an unwritable --out found after the run.
-    ceworld::files::check_writable(&args.out)?;
+    crate::files::check_writable(&args.out)?;
     let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
     stop::install();
     let mut progress = (!args.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
@@ -68,10 +68,10 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         progress.finish();
     }
     outcome.to_file(valued.episodes(), &config).save(&args.out)?;
-    crate::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
+    crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
     let what = match (&outcome.evaluation, &world) {
         (Some(e), _) => format!("{:.4} ± {:.4} on {} fresh episodes", e.mean, e.std_error, e.episodes),
-        (None, ceworld::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {
+        (None, crate::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {
             format!("exact infinite-horizon value {:.6}", outcome.value)
         }
         (None, _) => format!("exact value at the horizon {:.6}", outcome.value),
