@@ -12,6 +12,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from cehmm import cli
@@ -63,3 +64,48 @@ def test_the_command_line_leaves_the_interpreters_signal_handlers_as_they_were(c
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(1)
     assert cli.main([]) == 2
+
+
+def test_a_run_keeps_its_history_and_cehmm_plot_draws_it(tmp_path: Path) -> None:
+    run = ["optimize", "--case", "3", "--levels", "4", "--samples", "100", "--max-iterations", "6", "--quiet"]
+    done = cehmm(*run, "--out", "p.json", "--history", "h.jsonl", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    again = cehmm(*run, "--out", "p.json", "--history", "h.csv", cwd=tmp_path)
+    assert again.returncode == 2 and "exists (give --force" in again.stderr, again.stderr
+    forced = cehmm(*run, "--out", "p.json", "--force", "--history", "h.csv", cwd=tmp_path)
+    assert forced.returncode == 0, forced.stderr
+    from cehmm.plots import read_history
+
+    lines, table = read_history(tmp_path / "h.jsonl"), read_history(tmp_path / "h.csv")
+    assert list(lines["iteration"]) == list(range(6))
+    for key in ("mean", "best", "elite_threshold", "elite_mean"):
+        assert np.array_equal(lines[key], table[key]), key
+    drawn = cehmm("plot", "h.jsonl", "h.csv", "--out", "lc.png", cwd=tmp_path)
+    assert drawn.returncode == 0, drawn.stderr
+    assert (tmp_path / "lc.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert cehmm("plot", "h.jsonl", "--out", "lc.png", cwd=tmp_path).returncode == 2  # exists
+    bad = cehmm("plot", "p.json", "--out", "x.png", cwd=tmp_path)
+    assert bad.returncode == 2 and "expected a .jsonl or .csv" in bad.stderr, bad.stderr
+
+
+def test_results_draw_their_learning_curves(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import cehmm as package
+
+    world = package.TargetTracking(case=1)
+    result = package.optimize(world, levels=[2], samples=100, max_iterations=4, eval_episodes=20, progress=False)
+    search = package.optimize_controller(
+        package.PomdpWorld.from_file(TIGER), nodes=2, max_iterations=3, restarts=2, progress=False
+    )
+    rival = {"mean": [1.0, 2.0, 2.5], "seconds": [0.1, 0.2, 0.3]}
+    for figure in [result.plot(), search.plot(x="seconds"), package.plots.learning_curve(result, search, rival)]:
+        path = tmp_path / "f.png"
+        figure.savefig(path)
+        assert path.stat().st_size > 1000
+    with pytest.raises(TypeError, match="expected a result"):
+        package.plots.learning_curve([1, 2, 3])
+    with pytest.raises(package.InvalidArgumentError, match="'iteration' or 'seconds'"):
+        result.plot(x="time")
+    # Without matplotlib (the optional extra), the error says how to install it.
+    monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
+    with pytest.raises(ImportError, match=r"pip install 'cehmm\[plot\]'"):
+        result.plot()

@@ -15,6 +15,7 @@ from . import _core
 
 #: The package's own commands (written in Python), with what they do.
 PYTHON_COMMANDS = {
+    "plot": "draw history files (--history FILE.jsonl or .csv) as learning curves: cehmm plot H... --out PNG",
     "reproduce": "reproduce the paper's results table (model §5) and write the report",
     "benchmarks": "learn controllers for every .pomdp file of data/pomdp and write docs/benchmarks.md",
 }
@@ -34,6 +35,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(USAGE, end="", file=sys.stderr)
         return 2
     command, rest = args[0], args[1:]
+    if command == "plot":
+        return plot(rest)
     if command == "reproduce":
         from . import reproduce
 
@@ -49,6 +52,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     if command in ("-h", "--help", "help"):
         print("\n" + USAGE, end="")
     return status
+
+
+def plot(args: Sequence[str]) -> int:
+    """``cehmm plot HISTORY... --out PNG [--x seconds]``: the learning curves of history files."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="cehmm plot", description=PYTHON_COMMANDS["plot"])
+    parser.add_argument("histories", nargs="+", metavar="HISTORY", help="a .jsonl or .csv history file")
+    parser.add_argument("--out", required=True, help="the figure (PNG, SVG, PDF: by its extension)")
+    parser.add_argument("--x", choices=["iteration", "seconds"], default="iteration")
+    parser.add_argument("--force", action="store_true", help="replace --out when it exists")
+    options = parser.parse_args(args)
+    from pathlib import Path
+
+    from .plots import learning_curve
+
+    if Path(options.out).exists() and not options.force:
+        print(f"cehmm plot: error: {options.out} exists (give --force to replace it)", file=sys.stderr)
+        return 2
+    try:
+        figure = learning_curve(*options.histories, x=options.x)
+    except (OSError, ValueError, TypeError, ImportError) as e:
+        print(f"cehmm plot: error: {e}", file=sys.stderr)
+        return 2
+    figure.savefig(options.out, dpi=120)
+    print(f"saved {options.out}")
+    return 0
 
 
 if __name__ == "__main__":

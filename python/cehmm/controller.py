@@ -67,6 +67,12 @@ class ControllerResult:
     run_values: list[float]
     seconds: float
 
+    def plot(self, x: str = "iteration") -> Any:
+        """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""
+        from .plots import learning_curve
+
+        return learning_curve(self, x=x)
+
     def __repr__(self) -> str:
         return (
             f"ControllerResult(value={self.value:.6f} ({self.kind}), nodes={self.policy.levels[0]}, "

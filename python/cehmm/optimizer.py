@@ -74,6 +74,12 @@ class OptimizeResult:
             seconds=core.seconds,
         )
 
+    def plot(self, x: str = "iteration") -> Any:
+        """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""
+        from .plots import learning_curve
+
+        return learning_curve(self, x=x)
+
     @property
     def best_mean(self) -> float:
         """Mean reward of the best iteration (biased upwards; see :attr:`evaluation`)."""

@@ -13,11 +13,16 @@ Example:
 
 from __future__ import annotations
 
+import csv
+import json
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from . import _core
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -27,9 +32,95 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 def _figure(**kwargs: Any) -> Figure:
-    from matplotlib.figure import Figure
-
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as e:
+        raise ImportError("cehmm's figures need matplotlib: pip install 'cehmm[plot]'") from e
     return Figure(**kwargs)
+
+
+def read_history(path: str | Path) -> dict[str, np.ndarray]:
+    """The history a run saved (``--history FILE.jsonl`` or ``FILE.csv``) as columns, one numpy
+    array per field, as :attr:`cehmm.OptimizeResult.history` has them."""
+    path = Path(path)
+    if path.suffix == ".jsonl":
+        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    elif path.suffix == ".csv":
+        rows = list(csv.DictReader(path.read_text().splitlines()))
+    else:
+        raise _core.InvalidArgumentError(f"invalid history: {path} (expected a .jsonl or .csv file)")
+    if not rows:
+        raise _core.InvalidArgumentError(f"invalid history: {path} has no record")
+    return {key: np.array([_cell(r.get(key)) for r in rows]) for key in rows[0]}
+
+
+def _cell(value: Any) -> Any:
+    """A CSV cell as its number or flag (JSON values are already)."""
+    if not isinstance(value, str):
+        return value
+    if value in ("true", "false"):
+        return value == "true"
+    try:
+        return float(value)
+    except ValueError:
+        return value
+
+
+def _history_of(run: Any) -> tuple[dict[str, Any], str]:
+    """A run's history columns and label: a result, a history dict, or a history file."""
+    if isinstance(run, (str, Path)):
+        return read_history(run), Path(run).stem
+    history = getattr(run, "history", run)
+    if not isinstance(history, Mapping) or "mean" not in history:
+        raise TypeError(
+            f"invalid run: {type(run).__name__} (expected a result of optimize or optimize_controller, a history "
+            "dict with 'mean', or a .jsonl/.csv history file)"
+        )
+    return dict(history), type(run).__name__.removesuffix("Result").lower() or "run"
+
+
+def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | None = None) -> Figure:
+    """The mean, elite threshold and best so far of each iteration, of one run or several on
+    one axes (restarts and rivals beside each other).
+
+    Args:
+        runs: results of :func:`cehmm.optimize` or :func:`cehmm.optimize_controller`, history
+            dicts (``{"mean": [...], ...}``: a rival's run as plain arrays; ``elite_threshold``,
+            ``best_so_far`` and ``seconds`` are drawn where given), or history files.
+        x: ``"iteration"`` or ``"seconds"``.
+        labels: one per run (default: the file's name, or the kind of result).
+    """
+    if x not in ("iteration", "seconds"):
+        raise _core.InvalidArgumentError(f"invalid x: {x!r} (expected 'iteration' or 'seconds')")
+    if not runs:
+        raise TypeError("learning_curve() needs at least one run")
+    fig = _figure(figsize=(7.0, 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:brown", "tab:olive"]
+    for k, run in enumerate(runs):
+        history, label = _history_of(run)
+        label = labels[k] if labels is not None else label
+        mean = np.asarray(history["mean"], dtype=float)
+        xs = np.asarray(history.get(x, np.arange(len(mean))), dtype=float)
+        color = colors[k % len(colors)]
+        # Best so far: the searches record it; for episode CE, the best mean so far.
+        best = np.asarray(history.get("best_so_far", np.maximum.accumulate(mean)), dtype=float)
+        ax.plot(xs, mean, color=color, linewidth=1.0, label=f"{label}: mean")
+        if "elite_threshold" in history:
+            ax.plot(
+                xs,
+                history["elite_threshold"],
+                color=color,
+                linewidth=0.7,
+                linestyle="--",
+                label=f"{label}: elite threshold",
+            )
+        ax.plot(xs, best, color=color, linewidth=1.4, linestyle=":", label=f"{label}: best so far")
+    ax.set_xlabel("iteration" if x == "iteration" else "seconds")
+    ax.set_ylabel("value")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    return fig
 
 
 def summary_bars(summary: Sequence[Mapping[str, Any]], paper_best: float = 69.0) -> Figure:

@@ -84,7 +84,8 @@ fn a_controller_search_saves_a_policy_whose_value_it_reports() {
     fails_with(&["controller", "--case", "1", "--value", "near"], &["value", "\"near\"", "sampled"]);
     fails_with(&[&args[..], &["--rho", "2"]].concat(), &["rho", "2"]);
     let sampled = ["controller", "--case", "1", "--nodes", "3", "--samples", "100", "--episodes", "1"];
-    let out = ceworld(&[&sampled[..], &["--max-iterations", "2", "--eval-episodes", "5", "--out", p, "-q"]].concat());
+    let again = ["--max-iterations", "2", "--eval-episodes", "5", "--out", p, "--force", "-q"];
+    let out = ceworld(&[&sampled[..], &again[..]].concat());
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && stdout.contains("on 5 fresh episodes"), "{stdout}");
     let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
@@ -381,4 +382,37 @@ fn defaults_are_shown_as_they_are_written() {
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && help.contains("[default: 16,16]"), "{help}");
     fails_with(&["optimize", "--levels", "16 16"], &["--levels", "expected sizes separated by commas"]);
+}
+
+#[test]
+fn runs_keep_their_history_and_never_replace_a_result_unasked() {
+    let (out, jsonl, csv) = (temp("kept.json"), temp("kept.jsonl"), temp("kept.csv"));
+    let (o, j, c) = (out.to_str().unwrap(), jsonl.to_str().unwrap(), csv.to_str().unwrap());
+    let run = ["optimize", "--case", "3", "--levels", "4", "--samples", "100", "--max-iterations", "5", "--quiet"];
+    let done = ceworld(&[&run[..], &["--out", o, "--history", j]].concat());
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let lines: Vec<serde_json::Value> =
+        std::fs::read_to_string(&jsonl).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 5);
+    assert!(lines.iter().enumerate().all(|(i, l)| l["iteration"] == i && l["mean"].is_number()), "{lines:?}");
+    // The same run again: refused before it starts, unless --force.
+    let again = ceworld(&[&run[..], &["--out", o]].concat());
+    let stderr = String::from_utf8_lossy(&again.stderr);
+    assert_eq!(again.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--out") && stderr.contains("exists (give --force"), "{stderr}");
+    let forced = ceworld(&[&run[..], &["--out", o, "--force", "--history", c]].concat());
+    assert!(forced.status.success(), "{}", String::from_utf8_lossy(&forced.stderr));
+    let table = std::fs::read_to_string(&csv).unwrap();
+    let rows: Vec<&str> = table.lines().collect();
+    assert_eq!(rows.len(), 6, "{table}");
+    assert!(rows[0].split(',').any(|h| h == "elite_threshold"), "{table}");
+    fails_with(&[&run[..], &["--out", o, "--force", "--history", "h.txt"]].concat(), &["--history", ".jsonl or .csv"]);
+    // The controller search keeps its history too.
+    let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+    let search = ["controller", "--pomdp", &tiger, "--nodes", "2", "--max-iterations", "3", "--quiet", "--force"];
+    let done = ceworld(&[&search[..], &["--out", o, "--history", j]].concat());
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let first: serde_json::Value =
+        serde_json::from_str(std::fs::read_to_string(&jsonl).unwrap().lines().next().unwrap()).unwrap();
+    assert!(first["best_so_far"].is_number() && first["restart"] == 0, "{first}");
 }

@@ -1,13 +1,11 @@
 //! `ceworld controller`: the cross-entropy method over deterministic controllers of any world,
 //! on exact values (a tabular world) or sampled ones (model §8).
 
-use std::path::PathBuf;
-
 use crate::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller_with};
 use crate::progress::{LiveLine, Progress};
 use crate::{Flow, Result};
 
-use crate::cli::{CheckpointArgs, WorldArgs, stop, world_from};
+use crate::cli::{OutputArgs, WorldArgs, stop, world_from};
 
 #[derive(clap::Args)]
 pub(crate) struct ControllerArgs {
@@ -32,14 +30,8 @@ pub(crate) struct ControllerArgs {
     /// [default: uniform on exact values, mixed on sampled ones]
     #[arg(long, value_parser = parse_template)]
     template: Option<Template>,
-    /// Where to save the best controller (a policy file, model §6).
-    #[arg(long, default_value = "policy.json", value_name = "FILE.json")]
-    out: PathBuf,
     #[command(flatten)]
-    checkpoint: CheckpointArgs,
-    /// No progress line.
-    #[arg(long, short)]
-    quiet: bool,
+    output: OutputArgs,
 }
 
 pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
@@ -54,10 +46,11 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     };
     config.validate()?;
     // The result is not lost to an unwritable --out found after the run.
-    crate::files::check_writable(&args.out)?;
-    let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
+    args.output.check()?;
+    let checkpointing = args.output.checkpoint.checkpointing(args.output.quiet)?;
     stop::install();
-    let mut progress = (!args.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
+    let mut progress =
+        (!args.output.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
     let outcome = optimize_controller_with(valued, &config, checkpointing.as_ref(), |r| {
         if let Some(progress) = &mut progress {
             progress.update(r);
@@ -67,8 +60,9 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     if let Some(progress) = progress {
         progress.finish();
     }
-    outcome.to_file(valued.episodes(), &config).save(&args.out)?;
-    crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
+    outcome.to_file(valued.episodes(), &config).save(&args.output.out)?;
+    args.output.write_history(&outcome.history)?;
+    crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.output.out);
     let what = match (&outcome.evaluation, &world) {
         (Some(e), _) => format!("{:.4} ± {:.4} on {} fresh episodes", e.mean, e.std_error, e.episodes),
         (None, crate::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {
@@ -92,7 +86,7 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
         outcome.history.len(),
         outcome.seconds,
         outcome.best_iteration,
-        args.out.display()
+        args.output.out.display()
     );
     Ok(())
 }

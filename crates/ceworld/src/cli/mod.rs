@@ -3,6 +3,7 @@
 //! ([`main`]).
 
 mod controller;
+mod output;
 mod qlearn;
 mod stop;
 
@@ -12,6 +13,7 @@ use std::time::Instant;
 
 use crate::progress::{LiveLine, Progress};
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use output::OutputArgs;
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
 
@@ -150,14 +152,8 @@ struct OptimizeArgs {
     /// Start from a saved policy instead.
     #[arg(long, value_name = "FILE.json", conflicts_with_all = ["random_init", "levels"])]
     init: Option<PathBuf>,
-    /// Where to save the best policy.
-    #[arg(long, default_value = "policy.json", value_name = "FILE.json")]
-    out: PathBuf,
     #[command(flatten)]
-    checkpoint: CheckpointArgs,
-    /// No progress line.
-    #[arg(long, short)]
-    quiet: bool,
+    output: OutputArgs,
 }
 
 /// Checkpoints of a long optimisation (every optimiser's).
@@ -177,6 +173,11 @@ pub(crate) struct CheckpointArgs {
 }
 
 impl CheckpointArgs {
+    /// Whether the run continues one saved in --checkpoint.
+    pub(crate) fn resuming(&self) -> bool {
+        self.resume && self.checkpoint.as_ref().is_some_and(|p| p.exists())
+    }
+
     /// The checkpoints asked for, checked; says when a run resumes (unless `quiet`).
     pub(crate) fn checkpointing(&self, quiet: bool) -> Result<Option<crate::Checkpointing>> {
         let checkpointing = self.checkpoint.as_ref().map(|path| crate::Checkpointing {
@@ -255,7 +256,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     let config = args.config.clone();
     config.validate()?;
     // The result is not lost to an unwritable --out found after the run.
-    crate::files::check_writable(&args.out)?;
+    args.output.check()?;
     let initial = if let Some(path) = &args.init {
         PolicyFile::load(path)?.policy
     } else {
@@ -267,7 +268,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         init.policy(world, &args.levels.0, config.seed)?
     };
     stop::install();
-    if !args.quiet {
+    if !args.output.quiet {
         eprintln!(
             "{}: world {} levels {:?} ({} parameters), N = {}, rho = {}, alpha = {}, patience {}, seed {}",
             program(),
@@ -281,8 +282,9 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
             config.seed
         );
     }
-    let mut progress = (!args.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
-    let checkpointing = args.checkpoint.checkpointing(args.quiet)?;
+    let mut progress =
+        (!args.output.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
+    let checkpointing = args.output.checkpoint.checkpointing(args.output.quiet)?;
     let result = optimize_with(world, initial, &config, checkpointing.as_ref(), |r| {
         if let Some(progress) = &mut progress {
             progress.update(r);
@@ -293,8 +295,9 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         progress.finish();
     }
     let file = result.to_file(world, &config);
-    file.save(&args.out)?;
-    warn_checkpoint(result.checkpoint_error.as_deref(), &args.out);
+    file.save(&args.output.out)?;
+    args.output.write_history(&result.history)?;
+    warn_checkpoint(result.checkpoint_error.as_deref(), &args.output.out);
     let e = &result.evaluation;
     if config.restarts > 1 {
         println!("best of {} restarts: restart {}", config.restarts, result.restart);
@@ -311,7 +314,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         e.std_error,
         e.min,
         e.max,
-        args.out.display()
+        args.output.out.display()
     );
     Ok(())
 }
