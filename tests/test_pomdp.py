@@ -166,3 +166,34 @@ def test_a_path_that_is_not_utf8_is_refused_by_name(tmp_path: Path) -> None:
     for path in [os.fsdecode(raw), raw, Path(os.fsdecode(raw))]:
         with pytest.raises(cehmm.InvalidArgumentError, match=r"tiger\\udcff.pomdp' is not valid UTF-8"):
             cehmm.PomdpWorld.from_file(path)
+
+
+def _mixed(table: np.ndarray, eps: float) -> np.ndarray:
+    """Each row mixed with the uniform law by `eps`, as long refits leave a learned table."""
+    return (1 - eps) * table + eps / table.shape[-1]
+
+
+def test_a_learned_policys_graph_drops_negligible_laws_and_its_most_likely_controller_is_one(
+    tiger: cehmm.PomdpWorld,
+) -> None:
+    # A learned tiger policy drew every memory, with edges of probability 1e-12; pruned at 0.001
+    # (the default) it shows what the policy does, and its most likely controller is a graph.
+    exact = listen_twice(tiger)
+    t = exact.tables
+    tables = {
+        "h0": _mixed(t["h0"], 1e-9),
+        "h1": _mixed(t["h1"], 1e-9),
+        "upper": [{k: _mixed(v, 1e-9) for k, v in level.items()} for level in t["upper"]],
+    }
+    policy = cehmm.Policy.from_tables(tables, world=tiger)
+    full, shown = policy.graph(form="json", prune=0.0), policy.graph(form="json")
+    assert len(full["nodes"]) > len(shown["nodes"]) == 5
+    assert policy.graph() == exact.graph()
+    with pytest.raises(cehmm.InvalidArgumentError, match="not deterministic"):
+        policy.graph(form="pg", prune=0.0)
+    assert policy.graph(form="pg") == exact.graph(form="pg")  # deterministic once pruned
+    likely = policy.most_likely()
+    assert likely.provenance["derived"].startswith("most likely")
+    assert likely.graph(form="pg") == exact.graph(form="pg")
+    with pytest.raises(cehmm.InvalidArgumentError, match="prune"):
+        policy.graph(prune=1.5)

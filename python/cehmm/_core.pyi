@@ -38,6 +38,7 @@ __all__ = [
     "evaluate_policy_windows",
     "epsilon",
     "ENGINE_VERSION",
+    "GRAPH_PRUNE",
     "CE_DEFAULTS",
     "CONTROLLER_DEFAULTS",
     "INIT_CHOICES",
@@ -52,6 +53,7 @@ __all__ = [
 ]
 
 ENGINE_VERSION: str
+GRAPH_PRUNE: float
 #: ``CeConfig::default()``: samples, rho, smoothing, patience, seed, eval_episodes, memory_update, restarts.
 CE_DEFAULTS: dict[str, Any]
 CONTROLLER_DEFAULTS: dict[str, Any]
@@ -268,7 +270,8 @@ class Policy:
     ) -> Evaluation: ...
     def rollout(self, world: World | OutsideWorld, seed: int, episode: int) -> Rollout: ...
     def evaluate_exact(self, world: World, horizon: int | None, infinite: bool, tolerance: float) -> ExactValue: ...
-    def graph(self, world: World, form: str) -> Any: ...
+    def graph(self, world: World, form: str, prune: float) -> Any: ...
+    def most_likely(self) -> Policy: ...
 
 @final
 class OptimizeOutcome:

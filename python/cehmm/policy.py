@@ -216,7 +216,7 @@ class Policy:
         """
         return self._core.evaluate_exact(core_world(self._world(world)), horizon, infinite, tolerance)
 
-    def graph(self, world: World | None = None, form: str = "text") -> Any:
+    def graph(self, world: World | None = None, form: str = "text", prune: float = _core.GRAPH_PRUNE) -> Any:
         """The policy as a finite-state controller (a policy graph) on a tabular world.
 
         Its nodes are the memories reachable from the start; each node takes a decision and each
@@ -227,12 +227,20 @@ class Policy:
             form: ``"text"`` (a str in the file's own names), ``"json"`` (a dict in those names)
                 or ``"pg"`` (pomdp-solve's policy-graph format ``N A Z1 Z2 ...``, node 0 the
                 initial one; deterministic policies only).
+            prune: laws of this probability or less are left out (and the memories only they
+                reach): a learned policy keeps small probabilities everywhere (default 0.001; 0
+                keeps all but rounding noise, below 1e-12).
 
         Raises:
             InvalidArgumentError: the world is not tabular, or ``"pg"`` for a policy that is not
                 deterministic.
         """
-        return self._core.graph(core_world(self._world(world)), form)
+        return self._core.graph(core_world(self._world(world)), form, prune)
+
+    def most_likely(self) -> Policy:
+        """The most likely policy: every law at its likeliest outcome (the first of equals), a
+        deterministic controller with the same memory; ``graph(form="pg")`` takes it."""
+        return Policy(self._core.most_likely())
 
     def agent(self, seed: int = 0) -> Agent:
         """This policy as an agent for any loop (a Gymnasium loop, a robot's): ``agent.reset()`` at

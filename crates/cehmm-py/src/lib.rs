@@ -65,6 +65,7 @@ mod _core {
         // the import interrupted and panic.
         let _ = numpy::PyArray1::<f64>::from_vec(m.py(), Vec::new());
         m.add("ENGINE_VERSION", ceworld::VERSION)?;
+        m.add("GRAPH_PRUNE", ceworld::policy::graph::PRUNE)?;
         super::defaults::add(m)
     }
 }

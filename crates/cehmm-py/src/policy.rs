@@ -129,6 +129,17 @@ impl PyPolicy {
         self.file.save(path).or_raise()
     }
 
+    /// The most likely policy: every law at its likeliest outcome (a deterministic controller
+    /// with the same memory), the provenance marking it so.
+    fn most_likely(&self) -> PyPolicy {
+        let mut file = self.file.clone();
+        file.policy = file.policy.most_likely();
+        if let Some(map) = file.provenance.as_object_mut() {
+            map.insert("derived".into(), json!("most likely (each law at its likeliest outcome)"));
+        }
+        PyPolicy { file }
+    }
+
     /// The policy document (model §6) as JSON text.
     fn to_json(&self) -> String {
         self.file.to_json().to_string()
@@ -275,14 +286,24 @@ impl PyPolicy {
     /// The policy as a policy graph on a tabular world (`ceworld::policy::graph`): `"text"` in
     /// the file's names, `"json"` (a dict), or `"pg"` (pomdp-solve's format; deterministic
     /// policies only).
-    fn graph<'py>(&self, py: Python<'py>, world: &PyWorld, form: &str) -> PyResult<Bound<'py, PyAny>> {
+    fn graph<'py>(
+        &self,
+        py: Python<'py>,
+        world: &PyWorld,
+        form: &str,
+        prune: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let prune = real("prune", prune)?;
+        if !(0.0..1.0).contains(&prune) {
+            return Err(raise(Error::invalid("prune", format!("{prune} (expected a probability 0 <= p < 1)"))));
+        }
         let AnyWorld::Pomdp(world) = &world.world else {
             return Err(raise(Error::invalid(
                 "world",
                 format!("{} (a policy graph needs a tabular world, e.g. cehmm.PomdpWorld)", world.world.name()),
             )));
         };
-        let graph = world.graph(&self.file.policy).or_raise()?;
+        let graph = world.graph(&self.file.policy, prune).or_raise()?;
         let model = &world.tables().pomdp;
         match form {
             "text" => Ok(graph.describe(&model.actions, &model.observations).into_pyobject(py)?.into_any()),

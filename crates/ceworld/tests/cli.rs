@@ -416,3 +416,22 @@ fn runs_keep_their_history_and_never_replace_a_result_unasked() {
         serde_json::from_str(std::fs::read_to_string(&jsonl).unwrap().lines().next().unwrap()).unwrap();
     assert!(first["best_so_far"].is_number() && first["restart"] == 0, "{first}");
 }
+
+#[test]
+fn show_writes_the_most_likely_controller_of_a_stochastic_policy() {
+    // The README trains this policy and then ran `show --pg`, which exited 2 (not deterministic).
+    let (policy, pg) = (temp("stochastic.json"), temp("stochastic.pg"));
+    let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+    let learn = ["optimize", "--pomdp", &tiger, "--horizon", "60", "--param", "reward=belief", "--levels", "8,8"];
+    let settings = ["--random-init", "--rho", "0.05", "--smoothing", "0.2", "--max-iterations", "5", "--quiet"];
+    let out = ceworld(&[&learn[..], &settings[..], &["--out", policy.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let shown = ceworld(&["show", policy.to_str().unwrap(), "--pg", pg.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&shown.stdout);
+    assert!(shown.status.success(), "{}", String::from_utf8_lossy(&shown.stderr));
+    assert!(stdout.contains("stochastic policy:") && stdout.contains("(the stochastic policy's: "), "{stdout}");
+    let lines = std::fs::read_to_string(&pg).unwrap();
+    // Node, action, then the next node on each of tiger's two observations.
+    assert!(lines.lines().all(|l| l.split(' ').count() == 2 + 2), "{lines}");
+    fails_with(&["show", policy.to_str().unwrap(), "--prune", "1"], &["--prune", "0 <= p < 1"]);
+}

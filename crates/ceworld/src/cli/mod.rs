@@ -72,10 +72,15 @@ enum Command {
         /// Also write the graph as JSON (the file's names) to this file.
         #[arg(long, value_name = "FILE.json")]
         json: Option<PathBuf>,
-        /// Also write it as a pomdp-solve policy graph (`N A Z1 Z2 ...`, node 0 initial; only
-        /// for a deterministic policy).
+        /// Also write it as a pomdp-solve policy graph (`N A Z1 Z2 ...`, node 0 initial). A
+        /// stochastic policy writes its most likely controller (each law at its likeliest
+        /// outcome), and both exact values are printed.
         #[arg(long, value_name = "FILE.pg")]
         pg: Option<PathBuf>,
+        /// Leave out of the graph shown the laws of this probability or less (and the memories
+        /// only they reach).
+        #[arg(long, default_value_t = crate::policy::graph::PRUNE)]
+        prune: f64,
     },
     /// Print the exact optimum of a world (known for case 1, fixed target).
     Optimum {
@@ -319,6 +324,16 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     Ok(())
 }
 
+/// A policy's exact value on a tabular world: infinite-horizon for a discount below 1, else at
+/// the world's horizon (model §7).
+fn exact_value(world: &crate::PomdpWorld, policy: &crate::Hhmm) -> Result<f64> {
+    if world.tables().gamma < 1.0 {
+        Ok(crate::exact::infinite_horizon(world, policy, 1e-6)?.value)
+    } else {
+        Ok(crate::exact::finite_horizon(world, policy, None)?.value)
+    }
+}
+
 /// Tells that the last checkpoint could not be written (the run went on, its result is in `out`).
 pub(crate) fn warn_checkpoint(error: Option<&str>, out: &std::path::Path) {
     if let Some(error) = error {
@@ -377,19 +392,35 @@ fn run(command: Command) -> Result<()> {
             );
             Ok(())
         }
-        Command::Show { file, json, pg } => {
+        Command::Show { file, json, pg, prune } => {
+            if !(0.0..1.0).contains(&prune) {
+                return Err(Error::invalid("--prune", format!("{prune} (expected a probability 0 <= p < 1)")));
+            }
             let f = PolicyFile::load(&file)?;
             let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
                 return Err(Error::invalid("show", "the policy's world is not tabular (expected a pomdp world)"));
             };
-            let graph = world.graph(&f.policy)?;
+            let graph = world.graph(&f.policy, prune)?;
             let model = &world.tables().pomdp;
             print!("{}", graph.describe(&model.actions, &model.observations));
             let write = |path: &PathBuf, text: String| {
                 crate::files::write_atomic(path, |out| std::io::Write::write_all(out, text.as_bytes()))
             };
             if let Some(path) = &pg {
-                write(path, graph.to_pg()?)?;
+                if world.graph(&f.policy, 0.0)?.is_deterministic() {
+                    write(path, world.graph(&f.policy, 0.0)?.to_pg()?)?;
+                } else {
+                    let likely = f.policy.most_likely();
+                    let controller = world.graph(&likely, 0.0)?;
+                    write(path, controller.to_pg()?)?;
+                    println!(
+                        "stochastic policy: {} holds its most likely controller ({} nodes, each law at its likeliest outcome): exact value {:.4} (the stochastic policy's: {:.4})",
+                        path.display(),
+                        controller.nodes.len(),
+                        exact_value(&world, &likely)?,
+                        exact_value(&world, &f.policy)?
+                    );
+                }
             }
             if let Some(path) = &json {
                 let doc = graph.to_json(&model.actions, &model.observations);

@@ -54,3 +54,21 @@ impl Controller {
         Hhmm::from_flat(layout, probs)
     }
 }
+
+impl Hhmm {
+    /// The most likely policy: every law at its likeliest outcome (the first of equals), a
+    /// deterministic controller with the same memory.
+    #[must_use]
+    pub fn most_likely(&self) -> Hhmm {
+        let mut probs = vec![0.0; self.probs.len()];
+        for t in &self.layout.tables {
+            for r in 0..t.rows {
+                let start = t.offset + r * t.cols;
+                let row = &self.probs[start..start + t.cols];
+                let best = (0..t.cols).fold(0, |b, k| if row[k] > row[b] { k } else { b });
+                probs[start + best] = 1.0;
+            }
+        }
+        Self::from_parts(self.layout.clone(), probs)
+    }
+}

@@ -12,8 +12,11 @@ use serde_json::{Value, json};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
 
-/// Laws below this are left out of a graph (they are rounding noise of refitted tables).
+/// Laws below this are left out of every graph (they are rounding noise of refitted tables).
 pub const NEGLIGIBLE: f64 = 1e-12;
+/// Laws below this are left out of the graphs shown by default (`show`, `Policy.graph`): a
+/// learned policy's tables keep small probabilities everywhere, which would draw every memory.
+pub const PRUNE: f64 = 1e-3;
 /// The most nodes a graph may have.
 pub const MAX_NODES: usize = 100_000;
 
@@ -39,8 +42,10 @@ pub struct Graph {
 
 impl Graph {
     /// The graph of `policy` for a world whose observations are `0..n_obs` after a first
-    /// observation `start` (the start symbol of a tabular world).
-    pub fn of(policy: &Hhmm, n_obs: usize, start: usize) -> Result<Graph> {
+    /// observation `start` (the start symbol of a tabular world), laws of probability `least` or
+    /// less left out (at least [`NEGLIGIBLE`]; the nodes only they reach with them).
+    pub fn of(policy: &Hhmm, n_obs: usize, start: usize, least: f64) -> Result<Graph> {
+        let least = least.max(NEGLIGIBLE);
         let mut index: HashMap<Vec<u16>, usize> = HashMap::new();
         let mut memories: Vec<Vec<u16>> = Vec::new();
         let mut find = |memory: Vec<u16>, memories: &mut Vec<Vec<u16>>| -> Result<usize> {
@@ -56,19 +61,19 @@ impl Graph {
         };
         let mut initial = Vec::new();
         for (memory, p) in policy.memory_law(start, &[], true) {
-            if p > NEGLIGIBLE {
+            if p > least {
                 initial.push((find(memory, &mut memories)?, p));
             }
         }
         let mut nodes = Vec::new();
         while nodes.len() < memories.len() {
             let memory = memories[nodes.len()].clone();
-            let decision = positive(policy.decision_law(memory[0] as usize).iter().copied().enumerate());
+            let decision = above(policy.decision_law(memory[0] as usize).iter().copied().enumerate(), least);
             let mut next = Vec::with_capacity(n_obs);
             for y in 0..n_obs {
                 let mut law = Vec::new();
                 for (m, p) in policy.memory_law(y, &memory, false) {
-                    if p > NEGLIGIBLE {
+                    if p > least {
                         law.push((find(m, &mut memories)?, p));
                     }
                 }
@@ -203,8 +208,8 @@ fn probability(p: f64) -> String {
     if p < 0.0005 { format!("{p:.1e}") } else { format!("{p:.3}") }
 }
 
-fn positive(law: impl Iterator<Item = (usize, f64)>) -> Vec<(usize, f64)> {
-    law.filter(|&(_, p)| p > NEGLIGIBLE).collect()
+fn above(law: impl Iterator<Item = (usize, f64)>, least: f64) -> Vec<(usize, f64)> {
+    law.filter(|&(_, p)| p > least).collect()
 }
 
 fn name(names: &[String], k: usize) -> String {

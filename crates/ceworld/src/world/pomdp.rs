@@ -194,10 +194,10 @@ impl PomdpWorld {
 
     /// `policy` as a policy graph over the file's observations (its first memory drawn after
     /// the start symbol), equivalent nodes merged when it is deterministic.
-    pub fn graph(&self, policy: &crate::policy::Hhmm) -> Result<crate::policy::graph::Graph> {
+    pub fn graph(&self, policy: &crate::policy::Hhmm, least: f64) -> Result<crate::policy::graph::Graph> {
         policy.check_shape(self.n_observations(), self.n_decisions())?;
         let n_o = self.tables.n_observations();
-        Ok(crate::policy::graph::Graph::of(policy, n_o, n_o)?.minimized())
+        Ok(crate::policy::graph::Graph::of(policy, n_o, n_o, least)?.minimized())
     }
 }
 
