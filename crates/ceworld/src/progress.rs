@@ -180,8 +180,29 @@ impl Step for ControllerIteration {
     }
 }
 
+/// Decimals that show an estimate to the precision of its standard error `se` (two significant
+/// digits of it, at most 12); 3 where it is 0 or not finite (an exact or a single value).
+pub fn decimals(se: f64) -> usize {
+    if !(se.is_finite() && se > 0.0) {
+        return 3;
+    }
+    (1.0 - se.log10().floor()).clamp(0.0, 12.0) as usize
+}
+
+/// `x` with `decimals` decimals.
+pub fn fixed(x: f64, decimals: usize) -> String {
+    format!("{x:.decimals$}")
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn estimates_are_shown_to_two_significant_digits_of_their_standard_error() {
+        assert_eq!((decimals(0.49), decimals(0.081), decimals(3.2), decimals(45.0)), (2, 3, 1, 0));
+        assert_eq!((decimals(0.0), decimals(f64::NAN), decimals(1e-300)), (3, 3, 12));
+        assert_eq!(fixed(-1.114_641_921_751_159, decimals(0.0112)), "-1.115");
+    }
+
     use super::*;
     use crate::ce::record::IterationRecord;
 

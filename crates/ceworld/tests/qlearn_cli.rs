@@ -82,7 +82,12 @@ fn qlearn_saves_a_table_and_prints_the_window_table() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("Q-policy (greedy, random ties; learnt with random ties"), "{stdout}");
     assert!(stdout.contains("| HHMM [16] ("), "{stdout}");
-    assert_eq!(stdout.lines().count(), 2 + 4, "{stdout}");
+    // The header, four rows and what the percentages are of.
+    assert_eq!(stdout.lines().count(), 2 + 4 + 1, "{stdout}");
+    assert!(
+        stdout.contains("mean, % of 69") && stdout.contains("(% of 69: of the reward of the paper's best"),
+        "{stdout}"
+    );
     let doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(doc[0]["report"]["from_start"]["episodes"], 200);
     assert_eq!(doc[1]["report"]["continuing"]["episodes"], 100);

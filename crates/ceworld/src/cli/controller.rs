@@ -64,7 +64,11 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     args.output.write_history(&outcome.history)?;
     crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.output.out);
     let what = match (&outcome.evaluation, &world) {
-        (Some(e), _) => format!("{:.4} ± {:.4} on {} fresh episodes", e.mean, e.std_error, e.episodes),
+        (Some(e), _) => {
+            let d = crate::progress::decimals(e.std_error);
+            let (mean, se) = (crate::progress::fixed(e.mean, d), crate::progress::fixed(e.std_error, d));
+            format!("{mean} ± {se} on {} fresh episodes", e.episodes)
+        }
         (None, crate::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {
             format!("exact infinite-horizon value {:.6}", outcome.value)
         }

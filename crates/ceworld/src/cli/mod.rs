@@ -11,7 +11,7 @@ use std::ffi::OsString;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::progress::{LiveLine, Progress};
+use crate::progress::{LiveLine, Progress, decimals, fixed};
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use output::OutputArgs;
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
@@ -307,18 +307,19 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     if config.restarts > 1 {
         println!("best of {} restarts: restart {}", config.restarts, result.restart);
     }
+    let d = decimals(e.std_error);
     println!(
-        "{}: {} iterations in {:.1}s, best iteration {} (mean {:.2}); evaluation on {} fresh episodes: {:.2} ± {:.2} (min {}, max {}); saved {}",
+        "{}: {} iterations in {:.1}s, best iteration {} (mean {}); evaluation on {} fresh episodes: {} ± {} (min {}, max {}); saved {}",
         result.stop.as_str(),
         result.history.len(),
         result.seconds,
         result.best_iteration,
-        result.history[result.best_iteration].mean,
+        fixed(result.history[result.best_iteration].mean, d),
         e.episodes,
-        e.mean,
-        e.std_error,
-        e.min,
-        e.max,
+        fixed(e.mean, d),
+        fixed(e.std_error, d),
+        fixed(e.min, d),
+        fixed(e.max, d),
         args.output.out.display()
     );
     Ok(())
@@ -377,16 +378,18 @@ fn run(command: Command) -> Result<()> {
             let pool = thread_pool(threads)?;
             let started = Instant::now();
             let e = crate::with_world!(&world, w => pool.install(|| evaluate(w, &f.policy, episodes, seed)))?;
-            let q: Vec<String> = e.quantiles.iter().map(|(q, v)| format!("q{:.0}={v}", q * 100.0)).collect();
+            let d = decimals(e.std_error);
+            let q: Vec<String> =
+                e.quantiles.iter().map(|(q, v)| format!("q{:.0}={}", q * 100.0, fixed(*v, d))).collect();
             println!(
-                "{}: {} episodes: mean {:.3} ± {:.3} (std {:.2}), min {}, max {}, {} ({:.2}s)",
+                "{}: {} episodes: mean {} ± {} (std {}), min {}, max {}, {} ({:.2}s)",
                 file.display(),
                 e.episodes,
-                e.mean,
-                e.std_error,
-                e.std,
-                e.min,
-                e.max,
+                fixed(e.mean, d),
+                fixed(e.std_error, d),
+                fixed(e.std, d),
+                fixed(e.min, d),
+                fixed(e.max, d),
                 q.join(" "),
                 started.elapsed().as_secs_f64()
             );

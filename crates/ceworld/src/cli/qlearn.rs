@@ -247,12 +247,14 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
 
 /// The paper's comparison table: worst, mean and best window, absolute and in % of `reference`.
 fn print_windows(reports: &[(String, WindowReport)], reference: f64) {
-    println!("| policy | windows | worst | mean | best | worst % | mean % | best % |");
+    // Percentages of `reference`: the paper's best mean reward of a 100-step window (--reference).
+    let of = format!("% of {reference}");
+    println!("| policy | windows | worst | mean | best | worst, {of} | mean, {of} | best, {of} |");
     println!("|---|---|---|---|---|---|---|---|");
     for (name, report) in reports {
         for (kind, e) in [("from the initial state", &report.from_start), ("after many cycles", &report.continuing)] {
             println!(
-                "| {name}, {kind} | {} | {} | {:.2} | {} | {:.0} % | {:.1} % | {:.0} % |",
+                "| {name}, {kind} | {} | {} | {:.2} | {} | {:.0} | {:.1} | {:.0} |",
                 e.episodes,
                 e.min,
                 e.mean,
@@ -263,6 +265,7 @@ fn print_windows(reports: &[(String, WindowReport)], reference: f64) {
             );
         }
     }
+    println!("(% of {reference}: of the reward of the paper's best policy per 100-step window; --reference sets it)");
 }
 
 pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
