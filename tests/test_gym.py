@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -69,3 +70,35 @@ def test_a_learned_agent_scores_in_a_gymnasium_loop_what_the_engine_says(case1: 
         agent.act(16)
     with pytest.raises(TypeError, match="observation"):
         agent.act("3")  # type: ignore[arg-type]
+
+
+TIGER = str(Path(__file__).resolve().parents[1] / "data" / "pomdp" / "tiger.95.POMDP")
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        dict(id=cehmm.gym.WORLD_ENV_ID, name="target-tracking", case=2),
+        dict(id=cehmm.gym.WORLD_ENV_ID, name="pomdp", file=TIGER, horizon=20),
+        dict(id=cehmm.gym.POMDP_ENV_ID, file=TIGER, horizon=20),
+    ],
+)
+def test_every_world_is_an_environment_that_passes_gymnasiums_checker(make: dict) -> None:
+    env = gymnasium.make(**make)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # check_env's notes on an env made through make()
+        check_env(env.unwrapped, skip_render_check=True)
+    world = env.unwrapped.world
+    assert (env.observation_space.n, env.action_space.n) == (world.n_observations, world.n_decisions)
+
+
+def test_a_pomdp_environment_scores_what_the_engine_says() -> None:
+    world = cehmm.PomdpWorld.from_file(TIGER, horizon=10)
+    policy = cehmm.Policy.random(world, [2, 2], seed=1)
+    env = gymnasium.make(cehmm.gym.POMDP_ENV_ID, file=TIGER, horizon=10, render_mode="ansi")
+    returns = cehmm.gym.play(env, policy.agent(seed=3), episodes=2000)
+    engine = policy.evaluate(world, episodes=20_000, seed=2)
+    z = (returns.mean() - engine.mean) / math.hypot(returns.std() / math.sqrt(len(returns)), engine.std_error)
+    assert abs(z) < 4, (returns.mean(), engine)
+    env.reset(seed=0)
+    assert env.render().startswith("t = 1: state ")

@@ -1,4 +1,12 @@
-"""The target-tracking world as a Gymnasium environment, ``cehmm/TargetTracking-v0`` (model §4).
+"""Every world of the engine as a Gymnasium environment: ``cehmm/World-v0`` (any registered world,
+``gymnasium.make("cehmm/World-v0", name="target-tracking", case=3)``), ``cehmm/Pomdp-v0`` (a
+``.pomdp`` file, ``gymnasium.make("cehmm/Pomdp-v0", file="tiger.95.POMDP", horizon=100)``) and
+``cehmm/TargetTracking-v0`` (model §4, with its drawings), all one :class:`WorldEnv`: ``Discrete``
+observations and decisions (the world's ``y`` and ``d``; a ``.pomdp`` world's first observation is
+its start symbol), the reward of each step, ``terminated`` where the world ends an episode early,
+``truncated`` after the horizon.
+
+The target-tracking world as a Gymnasium environment, ``cehmm/TargetTracking-v0`` (model §4).
 
 ``gymnasium.make("cehmm/TargetTracking-v0", case=3)`` (any :class:`cehmm.TargetTracking` keyword
 is taken) steps the engine's own world one decision at a time: ``Discrete(16)`` observations and
@@ -14,6 +22,7 @@ first (Gymnasium 1.x no longer loads plugins by itself).
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import gymnasium
@@ -22,9 +31,11 @@ from gymnasium import spaces
 
 from . import _core
 from .tracking import TargetTracking
-from .world import core_world
+from .world import World, core_world
 
 ENV_ID = "cehmm/TargetTracking-v0"
+WORLD_ENV_ID = "cehmm/World-v0"
+POMDP_ENV_ID = "cehmm/Pomdp-v0"
 
 #: Colours of the rgb_array drawing: empty cell, target rows, B, C, the target.
 _COLOURS = {
@@ -37,15 +48,16 @@ _COLOURS = {
 _CELL = 12
 
 
-class TargetTrackingEnv(gymnasium.Env[np.int64, np.int64]):
-    """The paper's target-tracking world (model §4) as a Gymnasium environment (module docs)."""
+class WorldEnv(gymnasium.Env[np.int64, np.int64]):
+    """A world of the engine (``name`` and its parameters, as :class:`cehmm.World` takes them) as
+    a Gymnasium environment (module docs); ``render_mode="ansi"`` prints the state's numbers."""
 
-    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+    metadata: dict[str, Any] = {"render_modes": ["ansi"], "render_fps": 4}
 
-    def __init__(self, render_mode: str | None = None, **params: Any) -> None:
+    def __init__(self, name: str, render_mode: str | None = None, **params: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"invalid render_mode: {render_mode!r} (expected one of {self.metadata['render_modes']})")
-        self.world = TargetTracking(**params)
+        self.world = World.from_dict({"name": name, **params})
         self.render_mode = render_mode
         self.observation_space = spaces.Discrete(self.world.n_observations)
         self.action_space = spaces.Discrete(self.world.n_decisions)
@@ -63,7 +75,32 @@ class TargetTrackingEnv(gymnasium.Env[np.int64, np.int64]):
         if self._session is None:
             raise gymnasium.error.ResetNeeded("call reset() before step()")
         observation, reward, over = self._session.step(int(action))
-        return np.int64(observation), float(reward), False, over, {"t": self._session.t}
+        # Over before the horizon: the world ended the episode; at it: the horizon cut it.
+        truncated = over and self._session.t > self.world.horizon
+        return np.int64(observation), float(reward), over and not truncated, truncated, {"t": self._session.t}
+
+    def render(self) -> str | np.ndarray | None:
+        if self.render_mode is None or self._session is None:
+            return None
+        labels = ", ".join(f"{k} {v}" for k, v in zip(self.world.state_labels, self._session.describe()))
+        return f"t = {self._session.t}: {labels}; reward so far {self._session.reward:g}\n"
+
+
+class PomdpEnv(WorldEnv):
+    """A ``.pomdp`` file as a Gymnasium environment (``cehmm/Pomdp-v0``; ``file=``, ``horizon=``,
+    ``discount=``, ``reward=`` as :class:`cehmm.PomdpWorld` takes them)."""
+
+    def __init__(self, file: str, render_mode: str | None = None, **params: Any) -> None:
+        super().__init__("pomdp", render_mode=render_mode, file=os.fsdecode(file), **params)
+
+
+class TargetTrackingEnv(WorldEnv):
+    """The paper's target-tracking world (model §4) as a Gymnasium environment (module docs)."""
+
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
+
+    def __init__(self, render_mode: str | None = None, **params: Any) -> None:
+        super().__init__(TargetTracking.registered_name, render_mode=render_mode, **params)
 
     def render(self) -> str | np.ndarray | None:
         if self.render_mode is None or self._session is None:
@@ -124,9 +161,10 @@ def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.nda
 
 
 def register_envs() -> None:
-    """Registers ``cehmm/TargetTracking-v0`` with Gymnasium (once)."""
-    if ENV_ID not in gymnasium.registry:
-        gymnasium.register(id=ENV_ID, entry_point="cehmm.gym:TargetTrackingEnv")
+    """Registers the environments with Gymnasium (once)."""
+    for env_id, entry in [(ENV_ID, "TargetTrackingEnv"), (WORLD_ENV_ID, "WorldEnv"), (POMDP_ENV_ID, "PomdpEnv")]:
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=f"cehmm.gym:{entry}")
 
 
 register_envs()
