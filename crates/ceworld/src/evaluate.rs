@@ -148,15 +148,23 @@ pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
     Ok(rewards)
 }
 
-/// [`evaluate`] in an interrupted run: of the episodes that finish within the interrupt's grace.
-pub(crate) fn evaluate_until_cut<E: Episodes + ?Sized>(
+/// The rewards with which a run closes (its final evaluation, the score that chooses between
+/// restarts): of the episodes `0..episodes` of streams `(seed, purpose, 0, k)`, all of them, or
+/// for an `interrupted` run those that finish within the interrupt's grace.
+pub(crate) fn closing_rewards<E: Episodes + ?Sized>(
     world: &E,
     policy: &Hhmm,
     episodes: usize,
     seed: u64,
-) -> Result<Evaluation> {
+    purpose: Purpose,
+    interrupted: bool,
+) -> Result<Vec<f64>> {
     check_fits(world, policy)?;
-    Ok(Evaluation::from_rewards(&rewards_until_cut(world, policy, episodes, seed, Purpose::Evaluate)?))
+    if interrupted {
+        rewards_until_cut(world, policy, episodes, seed, purpose)
+    } else {
+        episode_rewards(world, policy, 0..episodes, seed, purpose)
+    }
 }
 
 /// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between
@@ -165,18 +173,6 @@ pub fn selection_mean<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: 
     check_fits(world, policy)?;
     // Summed in episode order, so the score does not depend on the thread count.
     Ok(mean(episode_rewards(world, policy, 0..episodes, seed, Purpose::Select)?.iter().copied()))
-}
-
-/// [`selection_mean`] in an interrupted run: of the episodes that finish within the interrupt's
-/// grace (NaN where none does).
-pub(crate) fn selection_mean_until_cut<E: Episodes + ?Sized>(
-    world: &E,
-    policy: &Hhmm,
-    episodes: usize,
-    seed: u64,
-) -> Result<f64> {
-    check_fits(world, policy)?;
-    Ok(mean(rewards_until_cut(world, policy, episodes, seed, Purpose::Select)?.iter().copied()))
 }
 
 /// Mean, standard error, extremes and quantiles of the reward over fresh episodes.

@@ -178,6 +178,15 @@ pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> 
     Ok(bytes)
 }
 
+/// `bytes` in lowercase hex (a digest as files and checkpoints record it).
+pub fn hex(bytes: &[u8]) -> String {
+    use std::fmt::Write as _;
+    bytes.iter().fold(String::with_capacity(2 * bytes.len()), |mut hex, b| {
+        let _ = write!(hex, "{b:02x}");
+        hex
+    })
+}
+
 /// Why `shown`, a path that is not UTF-8, is refused where a world's parameters record it (they
 /// are JSON text: the path would become another name, and "no such file").
 pub fn not_utf8(shown: &str) -> String {

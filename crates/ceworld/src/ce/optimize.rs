@@ -15,7 +15,7 @@ use crate::ce::stopping::StopReason;
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::{Batch, Episodes, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{check_fits, evaluate, evaluate_until_cut, selection_mean, selection_mean_until_cut};
+use crate::evaluate::{Evaluation, check_fits, closing_rewards};
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream_key};
 
@@ -96,11 +96,10 @@ pub fn optimize_with<E: Episodes + ?Sized>(
             result.checkpoint_error = saver.failed.take();
             return Ok(result);
         }
-        let score = if result.interrupted() {
-            pool.install(|| selection_mean_until_cut(world, &result.policy, config.eval_episodes, config.seed))?
-        } else {
-            pool.install(|| selection_mean(world, &result.policy, config.eval_episodes, config.seed))?
-        };
+        let (policy, cut) = (&result.policy, result.interrupted());
+        let scored =
+            pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select, cut))?;
+        let score = crate::evaluate::mean(scored.iter().copied());
         if result.interrupted() {
             // The checkpoint keeps this run's state, to be continued.
             interrupted = Some(FinishedRun { score, result });
@@ -159,11 +158,7 @@ fn digest(policy: &Hhmm) -> String {
     for p in policy.probs() {
         h.update(p.to_bits().to_le_bytes());
     }
-    h.finalize().iter().fold(String::with_capacity(64), |mut hex, b| {
-        use std::fmt::Write;
-        let _ = write!(hex, "{b:02x}");
-        hex
-    })
+    crate::files::hex(&h.finalize())
 }
 
 /// One run of [`optimize_with`] (its `restarts` is ignored), from `initial` or from the saved
@@ -268,20 +263,19 @@ fn optimize_once<E: Episodes + ?Sized>(
     let stop = stop.expect("the loop ends with a reason");
     // A run cut before its first iteration has nothing to keep.
     let (_, best_iteration, best_policy) = best.ok_or(Error::Interrupted)?;
-    let evaluation = if stop == StopReason::Interrupted {
-        // What an interrupted run kept is evaluated for at most the interrupt's grace.
-        world.interrupt().inspect(|i| i.grace(GRACE));
-        pool.install(|| evaluate_until_cut(world, &best_policy, config.eval_episodes, config.seed))?
-    } else {
-        pool.install(|| evaluate(world, &best_policy, config.eval_episodes, config.seed))?
-    };
+    let interrupted = stop == StopReason::Interrupted;
+    // What an interrupted run kept is evaluated (and scored) for at most the interrupt's grace.
+    world.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
+    let (episodes, seed) = (config.eval_episodes, config.seed);
+    let rewards =
+        pool.install(|| closing_rewards(world, &best_policy, episodes, seed, Purpose::Evaluate, interrupted))?;
     Ok(CeResult {
         policy: best_policy,
         last_policy: policy,
         best_iteration,
         history,
         stop,
-        evaluation,
+        evaluation: Evaluation::from_rewards(&rewards),
         seconds: before + started.elapsed().as_secs_f64(),
         restart: 0,
         restart_scores: Vec::new(),

@@ -60,9 +60,8 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     if let Some(progress) = progress {
         progress.finish();
     }
-    outcome.to_file(valued.episodes(), &config).save(&args.output.out)?;
-    args.output.write_history(&outcome.history)?;
-    crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.output.out);
+    let file = outcome.to_file(valued.episodes(), &config);
+    args.output.save(&file, &outcome.history, outcome.checkpoint_error.as_deref())?;
     let what = match (&outcome.evaluation, &world) {
         (Some(e), _) => {
             let d = crate::progress::decimals(e.std_error);

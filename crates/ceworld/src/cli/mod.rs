@@ -299,10 +299,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     if let Some(progress) = progress {
         progress.finish();
     }
-    let file = result.to_file(world, &config);
-    file.save(&args.output.out)?;
-    args.output.write_history(&result.history)?;
-    warn_checkpoint(result.checkpoint_error.as_deref(), &args.output.out);
+    args.output.save(&result.to_file(world, &config), &result.history, result.checkpoint_error.as_deref())?;
     let e = &result.evaluation;
     if config.restarts > 1 {
         println!("best of {} restarts: restart {}", config.restarts, result.restart);
@@ -332,17 +329,6 @@ fn exact_value(world: &crate::PomdpWorld, policy: &crate::Hhmm) -> Result<f64> {
         Ok(crate::exact::infinite_horizon(world, policy, 1e-6)?.value)
     } else {
         Ok(crate::exact::finite_horizon(world, policy, None)?.value)
-    }
-}
-
-/// Tells that the last checkpoint could not be written (the run went on, its result is in `out`).
-pub(crate) fn warn_checkpoint(error: Option<&str>, out: &std::path::Path) {
-    if let Some(error) = error {
-        eprintln!(
-            "warning: {} and its result is saved in {}",
-            crate::ce::resume::checkpoint_warning(error),
-            out.display()
-        );
     }
 }
 

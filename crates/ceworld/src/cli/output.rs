@@ -10,6 +10,7 @@ use serde_json::Value;
 
 use crate::cli::CheckpointArgs;
 use crate::error::{Error, Result};
+use crate::policy::file::PolicyFile;
 
 /// The files a run writes.
 #[derive(clap::Args)]
@@ -62,8 +63,17 @@ impl OutputArgs {
         Ok(())
     }
 
+    /// Saves a run's result: the policy `file` to --out, its `history` to --history if given,
+    /// and a warning where its last checkpoint could not be written (`checkpoint_error`).
+    pub fn save<T: Serialize>(&self, file: &PolicyFile, history: &[T], checkpoint_error: Option<&str>) -> Result<()> {
+        file.save(&self.out)?;
+        self.write_history(history)?;
+        warn_checkpoint(checkpoint_error, &self.out);
+        Ok(())
+    }
+
     /// Writes `records` to --history, if given (through a temporary file renamed over it).
-    pub fn write_history<T: Serialize>(&self, records: &[T]) -> Result<()> {
+    fn write_history<T: Serialize>(&self, records: &[T]) -> Result<()> {
         let Some(path) = &self.history else { return Ok(()) };
         let rows: Vec<Value> = records.iter().map(|r| serde_json::to_value(r).unwrap_or(Value::Null)).collect();
         let text = match history_format(path)? {
@@ -75,6 +85,17 @@ impl OutputArgs {
             HistoryFormat::Csv => csv(&rows),
         };
         crate::files::write_atomic(path, |out| std::io::Write::write_all(out, text.as_bytes()))
+    }
+}
+
+/// Tells that the last checkpoint could not be written (the run went on, its result is in `out`).
+pub(crate) fn warn_checkpoint(error: Option<&str>, out: &Path) {
+    if let Some(error) = error {
+        eprintln!(
+            "warning: {} and its result is saved in {}",
+            crate::ce::resume::checkpoint_warning(error),
+            out.display()
+        );
     }
 }
 

@@ -224,7 +224,7 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
         if !outcome.interrupted {
             learner.save(&args.out)?;
         }
-        crate::cli::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
+        crate::cli::output::warn_checkpoint(outcome.checkpoint_error.as_deref(), &args.out);
     } else if outcome.checkpoint_error.is_some() {
         // The checkpoint is the result: one more try, its error the run's.
         learner.save(&args.out)?;

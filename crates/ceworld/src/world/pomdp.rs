@@ -114,11 +114,7 @@ pub struct PomdpState {
 
 /// The hex SHA-256 of `bytes`.
 pub fn sha256_hex(bytes: &[u8]) -> String {
-    use std::fmt::Write;
-    Sha256::digest(bytes).iter().fold(String::with_capacity(64), |mut hex, b| {
-        let _ = write!(hex, "{b:02x}");
-        hex
-    })
+    crate::files::hex(&Sha256::digest(bytes))
 }
 
 impl PomdpWorld {

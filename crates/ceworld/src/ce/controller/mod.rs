@@ -25,7 +25,7 @@ use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::{Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
-use crate::evaluate::{Evaluation, evaluate, evaluate_until_cut};
+use crate::evaluate::{Evaluation, closing_rewards};
 pub use crate::policy::controller::Controller;
 use crate::policy::file::PolicyFile;
 use crate::policy::{Hhmm, Layout};
@@ -224,12 +224,12 @@ pub fn optimize_controller_with(
     if let Valued::Sampled(w) = world {
         // The value reported comes from episodes the controller was not chosen on; an
         // interrupted search's for at most the interrupt's grace.
-        let evaluation = if outcome.stop == StopReason::Interrupted {
-            w.interrupt().inspect(|i| i.grace(GRACE));
-            search.pool.install(|| evaluate_until_cut(w, &outcome.policy, config.eval_episodes, config.seed))?
-        } else {
-            search.pool.install(|| evaluate(w, &outcome.policy, config.eval_episodes, config.seed))?
-        };
+        let interrupted = outcome.stop == StopReason::Interrupted;
+        w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
+        let (policy, episodes, seed) = (&outcome.policy, config.eval_episodes, config.seed);
+        let rewards =
+            search.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate, interrupted))?;
+        let evaluation = Evaluation::from_rewards(&rewards);
         outcome.value = evaluation.mean;
         outcome.evaluation = Some(evaluation);
     }
