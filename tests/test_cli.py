@@ -84,8 +84,12 @@ def test_a_run_keeps_its_history_and_cehmm_plot_draws_it(tmp_path: Path) -> None
     assert drawn.returncode == 0, drawn.stderr
     assert (tmp_path / "lc.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert cehmm("plot", "h.jsonl", "--out", "lc.png", cwd=tmp_path).returncode == 2  # exists
-    bad = cehmm("plot", "p.json", "--out", "x.png", cwd=tmp_path)
+    bad = cehmm("plot", "h.jsonl", "p.json", "--out", "x.png", cwd=tmp_path)
+    assert bad.returncode == 2 and "expected history files, or one policy file" in bad.stderr, bad.stderr
+    bad = cehmm("plot", "h.txt", "--out", "x.png", cwd=tmp_path)
     assert bad.returncode == 2 and "expected a .jsonl or .csv" in bad.stderr, bad.stderr
+    bad = cehmm("plot", "h.jsonl", "--what", "graph", "--out", "x.png", cwd=tmp_path)
+    assert bad.returncode == 2 and "invalid --what: graph (expected a policy file" in bad.stderr, bad.stderr
 
 
 def test_results_draw_their_learning_curves(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from . import _core
 
 #: The package's own commands (written in Python), with what they do.
 PYTHON_COMMANDS = {
-    "plot": "draw history files (--history FILE.jsonl or .csv) as learning curves: cehmm plot H... --out PNG",
+    "plot": "draw history files as learning curves, or a policy file as its graph or decision law: "
+    "cehmm plot FILE... --out PNG",
     "reproduce": "reproduce the paper's results table (model §5) and write the report",
     "benchmarks": "learn controllers for every .pomdp file of data/pomdp and write docs/benchmarks.md",
 }
@@ -54,31 +56,72 @@ def main(argv: Sequence[str] | None = None) -> int:
     return status
 
 
+#: What ``cehmm plot`` draws of a policy file (``--what``), by the function that draws it.
+POLICY_FIGURES = {"graph": "policy_graph", "law": "decision_law", "memory": "memory_use"}
+
+
 def plot(args: Sequence[str]) -> int:
-    """``cehmm plot HISTORY... --out PNG [--x seconds]``: the learning curves of history files."""
+    """``cehmm plot FILE... --out PNG``: learning curves of history files, or a figure of a
+    policy file (its policy graph on a tabular world, else its decision law)."""
     import argparse
 
-    parser = argparse.ArgumentParser(prog="cehmm plot", description=PYTHON_COMMANDS["plot"])
-    parser.add_argument("histories", nargs="+", metavar="HISTORY", help="a .jsonl or .csv history file")
+    parser = argparse.ArgumentParser(
+        prog="cehmm plot",
+        description=PYTHON_COMMANDS["plot"],
+        epilog="A .jsonl or .csv file is a history (several share one axes); a .json file a policy (one). "
+        "A policy's default figure is its policy graph on a tabular world, else its decision law.",
+    )
+    parser.add_argument("files", nargs="+", metavar="FILE", help="a history (.jsonl, .csv) or a policy file (.json)")
     parser.add_argument("--out", required=True, help="the figure (PNG, SVG, PDF: by its extension)")
-    parser.add_argument("--x", choices=["iteration", "seconds"], default="iteration")
+    parser.add_argument("--x", choices=["iteration", "seconds"], default="iteration", help="histories: the x axis")
+    parser.add_argument(
+        "--what",
+        choices=sorted(POLICY_FIGURES),
+        help="a policy: its policy graph (tabular worlds), decision law, or memory use (rollouts of its world)",
+    )
+    parser.add_argument("--prune", type=float, default=_core.GRAPH_PRUNE, help="--what graph: laws left out")
+    parser.add_argument("--episodes", type=int, default=200, help="--what memory: rollouts")
     parser.add_argument("--force", action="store_true", help="replace --out when it exists")
     options = parser.parse_args(args)
     from pathlib import Path
-
-    from .plots import learning_curve
 
     if Path(options.out).exists() and not options.force:
         print(f"cehmm plot: error: {options.out} exists (give --force to replace it)", file=sys.stderr)
         return 2
     try:
-        figure = learning_curve(*options.histories, x=options.x)
+        figure = _figure_of(options)
+        figure.savefig(options.out, dpi=120)
     except (OSError, ValueError, TypeError, ImportError) as e:
         print(f"cehmm plot: error: {e}", file=sys.stderr)
         return 2
-    figure.savefig(options.out, dpi=120)
     print(f"saved {options.out}")
     return 0
+
+
+def _figure_of(options: Any) -> Any:
+    """The figure ``cehmm plot`` was asked for."""
+    from pathlib import Path
+
+    from . import plots
+    from .policy import Policy
+
+    policies = [f for f in options.files if Path(f).suffix == ".json"]
+    if not policies:
+        if options.what is not None:
+            raise _core.InvalidArgumentError(f"invalid --what: {options.what} (expected a policy file, .json)")
+        return plots.learning_curve(*options.files, x=options.x)
+    if len(options.files) > 1:
+        raise _core.InvalidArgumentError(
+            f"invalid files: {' '.join(options.files)} (expected history files, or one policy file)"
+        )
+    policy = Policy.load(policies[0])
+    what = options.what or ("graph" if policy.world.get("name") == "pomdp" else "law")
+    title = f"{policies[0]}: {policy!r}"
+    if what == "graph":
+        return plots.policy_graph(policy, prune=options.prune, title=title)
+    if what == "memory":
+        return plots.memory_use(policy, episodes=options.episodes, title=title)
+    return plots.decision_law(policy, title=title)
 
 
 if __name__ == "__main__":

@@ -224,9 +224,10 @@ class Policy:
 
         Args:
             world: the world (default: the one stored with the policy).
-            form: ``"text"`` (a str in the file's own names), ``"json"`` (a dict in those names)
-                or ``"pg"`` (pomdp-solve's policy-graph format ``N A Z1 Z2 ...``, node 0 the
-                initial one; deterministic policies only).
+            form: ``"text"`` (a str in the file's own names), ``"json"`` (a dict in those names),
+                ``"dot"`` (Graphviz's DOT language, a str: ``dot -Tpng``; drawn without Graphviz
+                by :func:`cehmm.plots.policy_graph`) or ``"pg"`` (pomdp-solve's policy-graph
+                format ``N A Z1 Z2 ...``, node 0 the initial one; deterministic policies only).
             prune: laws of this probability or less are left out (and the memories only they
                 reach): a learned policy keeps small probabilities everywhere (default 0.001; 0
                 keeps all but rounding noise, below 1e-12).

@@ -309,7 +309,11 @@ impl PyPolicy {
             "text" => Ok(graph.describe(&model.actions, &model.observations).into_pyobject(py)?.into_any()),
             "pg" => Ok(graph.to_pg().or_raise()?.into_pyobject(py)?.into_any()),
             "json" => to_py(py, &graph.to_json(&model.actions, &model.observations)),
-            other => Err(raise(Error::invalid("form", format!("{other:?} (expected \"text\", \"json\" or \"pg\")")))),
+            "dot" => Ok(graph.to_dot(&model.actions, &model.observations).into_pyobject(py)?.into_any()),
+            other => Err(raise(Error::invalid(
+                "form",
+                format!("{other:?} (expected \"text\", \"json\", \"dot\" or \"pg\")"),
+            ))),
         }
     }
 }

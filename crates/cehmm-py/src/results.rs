@@ -8,6 +8,7 @@ use pyo3::types::PyDict;
 
 use ceworld::episodes::run::Rollout;
 use ceworld::exact::ExactValue;
+use ceworld::progress::{decimals, fixed};
 use ceworld::qlearn::{WindowReport, percent};
 use ceworld::{Error, Evaluation};
 
@@ -69,9 +70,17 @@ impl PyEvaluation {
     fn __repr__(&self) -> String {
         let e = &self.0;
         let median = e.quantiles.iter().find(|(q, _)| *q == 0.5).map_or(f64::NAN, |&(_, v)| v);
+        // Every figure to the precision of the standard error (two significant digits of it).
+        let f = |x: f64| fixed(x, decimals(e.std_error));
         format!(
-            "Evaluation(mean={:.3} ± {:.3}, episodes={}, std={:.3}, min={}, max={}, median={})",
-            e.mean, e.std_error, e.episodes, e.std, e.min, e.max, median
+            "Evaluation(mean={} ± {}, episodes={}, std={}, min={}, max={}, median={})",
+            f(e.mean),
+            f(e.std_error),
+            e.episodes,
+            f(e.std),
+            f(e.min),
+            f(e.max),
+            f(median)
         )
     }
 }
@@ -132,6 +141,22 @@ impl PyRollout {
         };
         let width = r.x_labels.len();
         Ok(PyArray1::from_iter(py, r.x.iter().skip(k).step_by(width).copied()))
+    }
+
+    /// The episode drawn (`cehmm.plots.rollout`, keywords passed on): a matplotlib figure.
+    #[pyo3(signature = (**kwargs))]
+    fn plot<'py>(slf: &Bound<'py, Self>, kwargs: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
+        slf.py().import("cehmm.plots")?.getattr("rollout")?.call((slf,), kwargs)
+    }
+
+    /// The episode as an animation saved to `path` (`cehmm.plots.animation`, keywords passed on).
+    #[pyo3(signature = (path, **kwargs))]
+    fn animate<'py>(
+        slf: &Bound<'py, Self>,
+        path: &Bound<'py, PyAny>,
+        kwargs: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        slf.py().import("cehmm.plots")?.getattr("animation")?.call((slf, path), kwargs)
     }
 
     fn __repr__(&self) -> String {

@@ -426,12 +426,24 @@ fn show_writes_the_most_likely_controller_of_a_stochastic_policy() {
     let settings = ["--random-init", "--rho", "0.05", "--smoothing", "0.2", "--max-iterations", "5", "--quiet"];
     let out = ceworld(&[&learn[..], &settings[..], &["--out", policy.to_str().unwrap()]].concat());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let shown = ceworld(&["show", policy.to_str().unwrap(), "--pg", pg.to_str().unwrap()]);
+    let dot = temp("stochastic.dot");
+    let shown =
+        ceworld(&["show", policy.to_str().unwrap(), "--pg", pg.to_str().unwrap(), "--dot", dot.to_str().unwrap()]);
     let stdout = String::from_utf8_lossy(&shown.stdout);
     assert!(shown.status.success(), "{}", String::from_utf8_lossy(&shown.stderr));
     assert!(stdout.contains("stochastic policy:") && stdout.contains("(the stochastic policy's: "), "{stdout}");
     let lines = std::fs::read_to_string(&pg).unwrap();
     // Node, action, then the next node on each of tiger's two observations.
     assert!(lines.lines().all(|l| l.split(' ').count() == 2 + 2), "{lines}");
+    // The DOT text of the graph shown: a node per memory reached, a start arrow per initial node.
+    let dot = std::fs::read_to_string(&dot).unwrap();
+    let nodes = stdout.lines().filter(|l| l.starts_with("node ")).count();
+    assert!(dot.starts_with("digraph policy {") && dot.trim_end().ends_with('}'), "{dot}");
+    let node_line = |l: &&str| {
+        let numbered = l.trim_start().strip_prefix('n').is_some_and(|r| r.starts_with(|c: char| c.is_ascii_digit()));
+        numbered && !l.contains("->")
+    };
+    let declared = dot.lines().filter(node_line).count();
+    assert_eq!(declared, nodes, "{dot}");
     fails_with(&["show", policy.to_str().unwrap(), "--prune", "1"], &["--prune", "0 <= p < 1"]);
 }

@@ -65,7 +65,8 @@ enum Command {
         tolerance: f64,
     },
     /// Show a policy of a tabular world as a finite-state controller (a policy graph) in the
-    /// .pomdp file's names, and optionally save it as JSON or as a pomdp-solve policy graph.
+    /// .pomdp file's names, and optionally save it as JSON, as Graphviz DOT or as a pomdp-solve
+    /// policy graph.
     Show {
         /// The policy file (JSON, model §6).
         file: PathBuf,
@@ -77,6 +78,10 @@ enum Command {
         /// outcome), and both exact values are printed.
         #[arg(long, value_name = "FILE.pg")]
         pg: Option<PathBuf>,
+        /// Also write it in Graphviz's DOT language (the file's names; `dot -Tpng FILE.dot`),
+        /// pruned as the graph shown.
+        #[arg(long, value_name = "FILE.dot")]
+        dot: Option<PathBuf>,
         /// Leave out of the graph shown the laws of this probability or less (and the memories
         /// only they reach).
         #[arg(long, default_value_t = crate::policy::graph::PRUNE)]
@@ -381,7 +386,7 @@ fn run(command: Command) -> Result<()> {
             );
             Ok(())
         }
-        Command::Show { file, json, pg, prune } => {
+        Command::Show { file, json, pg, dot, prune } => {
             if !(0.0..1.0).contains(&prune) {
                 return Err(Error::invalid("--prune", format!("{prune} (expected a probability 0 <= p < 1)")));
             }
@@ -414,6 +419,9 @@ fn run(command: Command) -> Result<()> {
             if let Some(path) = &json {
                 let doc = graph.to_json(&model.actions, &model.observations);
                 write(path, serde_json::to_string_pretty(&doc).expect("a graph serialises"))?;
+            }
+            if let Some(path) = &dot {
+                write(path, graph.to_dot(&model.actions, &model.observations))?;
             }
             Ok(())
         }

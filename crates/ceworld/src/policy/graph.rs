@@ -201,6 +201,40 @@ impl Graph {
             .collect();
         json!({"format": "cehmm-policy-graph", "initial": self.initial, "nodes": nodes})
     }
+
+    /// The graph in Graphviz's DOT language, in the world's names (`dot -Tpng FILE.dot`): a
+    /// node per memory labelled with its decisions, one edge per pair of nodes labelled with
+    /// the observations that take it (with their probability where it is below 1), and the
+    /// start drawn as a point.
+    pub fn to_dot(&self, decisions: &[String], observations: &[String]) -> String {
+        let with = |label: String, p: f64| if p < 1.0 { format!("{label} ({})", probability(p)) } else { label };
+        let mut text = String::from("digraph policy {\n  rankdir=LR;\n  node [shape=box, style=rounded];\n");
+        text.push_str("  start [shape=point, width=0.12];\n");
+        for &(k, p) in &self.initial {
+            let label = if p < 1.0 { format!(" [label=\"{}\"]", probability(p)) } else { String::new() };
+            let _ = writeln!(text, "  start -> n{k}{label};");
+        }
+        for (k, node) in self.nodes.iter().enumerate() {
+            let laws: Vec<String> = node.decision.iter().map(|&(d, p)| with(name(decisions, d), p)).collect();
+            let _ = writeln!(text, "  n{k} [label=\"{k}: {}\"];", escape(&laws.join("\n")));
+            // One edge per next node, labelled with every observation that leads there.
+            let mut edges: Vec<(usize, Vec<String>)> = Vec::new();
+            for (y, law) in node.next.iter().enumerate() {
+                for &(n, p) in law {
+                    let label = with(name(observations, y), p);
+                    match edges.iter_mut().find(|(to, _)| *to == n) {
+                        Some((_, labels)) => labels.push(label),
+                        None => edges.push((n, vec![label])),
+                    }
+                }
+            }
+            for (n, labels) in edges {
+                let _ = writeln!(text, "  n{k} -> n{n} [label=\"{}\"];", escape(&labels.join("\n")));
+            }
+        }
+        text.push_str("}\n");
+        text
+    }
 }
 
 /// `0.250`, or `2.1e-5` for what three decimals would show as zero.
@@ -212,6 +246,47 @@ fn above(law: impl Iterator<Item = (usize, f64)>, least: f64) -> Vec<(usize, f64
     law.filter(|&(_, p)| p > least).collect()
 }
 
+/// `text` inside a DOT string: quotes and backslashes escaped, line breaks as `\\n`.
+fn escape(text: &str) -> String {
+    text.replace('\\', "\\\\").replace('"', "\\\"").replace('\n', "\\n")
+}
+
 fn name(names: &[String], k: usize) -> String {
     names.get(k).cloned().unwrap_or_else(|| k.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| (*s).to_string()).collect()
+    }
+
+    #[test]
+    fn dot_draws_one_edge_per_pair_of_nodes_labelled_with_its_observations() {
+        // Node 0 listens; "left" goes to node 1 for sure, "right" stays or moves, 0.5 each;
+        // node 1 opens a door (named with a quote, which DOT must see escaped).
+        let graph = Graph {
+            initial: vec![(0, 1.0)],
+            nodes: vec![
+                Node {
+                    memory: vec![0],
+                    decision: vec![(0, 1.0)],
+                    next: vec![vec![(1, 1.0)], vec![(0, 0.5), (1, 0.5)]],
+                },
+                Node {
+                    memory: vec![1],
+                    decision: vec![(1, 0.75), (0, 0.25)],
+                    next: vec![vec![(0, 1.0)], vec![(0, 1.0)]],
+                },
+            ],
+        };
+        let dot = graph.to_dot(&names(&["listen", "open \"x\""]), &names(&["left", "right"]));
+        let expected = "digraph policy {\n  rankdir=LR;\n  node [shape=box, style=rounded];\n  start [shape=point, width=0.12];\n  \
+                        start -> n0;\n  n0 [label=\"0: listen\"];\n  n0 -> n1 [label=\"left\\nright (0.500)\"];\n  \
+                        n0 -> n0 [label=\"right (0.500)\"];\n  n1 [label=\"1: open \\\"x\\\" (0.750)\\nlisten (0.250)\"];\n  \
+                        n1 -> n0 [label=\"left\\nright\"];\n}\n";
+        assert_eq!(dot, expected);
+    }
 }

@@ -1,0 +1,189 @@
+"""How a policy uses its memory, for any world: the states visited at each level against time,
+the visits of (m₁, y) and (m₁, m₂), and the decision law per observation and memory state."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ._figure import figure, names
+
+if TYPE_CHECKING:  # pragma: no cover
+    from matplotlib.figure import Figure
+
+    from ..policy import Policy
+
+
+def _rollouts(policy: Policy, world: Any, episodes: int, seed: int) -> list[Any]:
+    """Episodes ``0..episodes`` of ``policy.evaluate(world, seed=seed)``, recorded."""
+    if episodes < 1:
+        from .. import _core
+
+        raise _core.InvalidArgumentError(f"invalid episodes: {episodes} (expected at least 1)")
+    return [policy.rollout(world, seed=seed, episode=k) for k in range(episodes)]
+
+
+def memory_by_step(policy: Policy, world: Any = None, episodes: int = 200, seed: int = 0) -> list[np.ndarray]:
+    """For each level ``l``, the share of the episodes still running at step ``t`` whose memory
+    ``m_l[t]`` is ``m``: an array ``(|M_l|, T)`` whose columns sum to 1 (episodes that end early
+    stop counting)."""
+    rollouts = _rollouts(policy, world, episodes, seed)
+    steps = max(len(r) for r in rollouts)
+    counts = [np.zeros((size, steps)) for size in policy.levels]
+    for r in rollouts:
+        t = np.arange(len(r))
+        for level, c in enumerate(counts):
+            np.add.at(c, (r.memory[:, level], t), 1.0)
+    alive = np.array([sum(len(r) > t for r in rollouts) for t in range(steps)], dtype=float)
+    return [c / alive for c in counts]
+
+
+def memory_use(policy: Policy, world: Any = None, episodes: int = 200, seed: int = 0, title: str = "") -> Figure:
+    """Heat maps of the memory states visited at each level against time over ``episodes``
+    rollouts (one panel per level, bottom level first; colour: the share of the episodes in
+    that state at that step)."""
+    shares = memory_by_step(policy, world, episodes, seed)
+    fig = figure(figsize=(7.0, 1.0 + 2.2 * len(shares)), layout="constrained")
+    axes = fig.subplots(len(shares), 1, squeeze=False, sharex=True)[:, 0]
+    image = None
+    for level, (ax, share) in enumerate(zip(axes, shares), start=1):
+        image = ax.imshow(share, cmap="magma_r", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
+        used = int((share.sum(axis=1) > 0).sum())
+        ax.set_ylabel(f"m_{level}")
+        ax.set_title(f"level {level}: {used} of {share.shape[0]} states visited", fontsize=9)
+        step = max(1, math.ceil(share.shape[0] / 8))
+        ax.set_yticks(range(0, share.shape[0], step))
+    axes[-1].set_xlabel(f"step t ({episodes} episodes)")
+    if image is not None:
+        fig.colorbar(image, ax=list(axes), shrink=0.85, label="share of episodes")
+    if title:
+        fig.suptitle(title, fontsize=9)
+    return fig
+
+
+def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
+    """The decision law as heat maps: ``h0``, the decision given the bottom memory ``m₁``, and
+    the decision given the observation ``y`` and the memory above ``m₂`` (``Σ_m₁ h1[y, m₂, m₁]
+    h0[m₁, d]``: with one level, a map ``y × d``; with more, the likeliest decision per
+    ``(y, m₂)``, shaded by its probability). Names come from the world where it has them
+    (default: the policy's stored world)."""
+    from matplotlib import colormaps as cm
+    from matplotlib.colors import ListedColormap
+
+    world = world if world is not None else _stored_world(policy)
+    tables = policy.tables
+    h0, h1 = tables["h0"], tables["h1"]
+    decisions = names(world, "actions", h0.shape[1])
+    observations = names(world, "observations", h1.shape[0])
+    law = np.einsum("yum,md->yud", h1, h0)  # P(d | y, m2)
+    fig = figure(figsize=(11.0, 0.8 + 0.22 * max(h0.shape[0], h1.shape[0], 12)), layout="constrained")
+    left, right = fig.subplots(1, 2, width_ratios=[1.0, 1.3])
+    image = left.imshow(h0, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
+    left.set_title("decision given m₁ (h0)", fontsize=9)
+    left.set_ylabel("m₁")
+    _ticks(left.xaxis, decisions, rotate=True)
+    _ticks(left.yaxis, [str(k) for k in range(h0.shape[0])])
+    fig.colorbar(image, ax=left, shrink=0.85, label="probability")
+    if law.shape[1] == 1:
+        image = right.imshow(law[:, 0, :], cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
+        right.set_title("decision given the observation y", fontsize=9)
+        _ticks(right.xaxis, decisions, rotate=True)
+        fig.colorbar(image, ax=right, shrink=0.85, label="probability")
+    else:
+        likeliest, p = law.argmax(axis=2), law.max(axis=2)
+        palette = [f"C{k}" for k in range(10)] if len(decisions) <= 10 else [cm["tab20"](k) for k in range(20)]
+        color = lambda d: palette[d % len(palette)]  # noqa: E731
+        colors = ListedColormap([color(d) for d in range(len(decisions))])
+        right.imshow(
+            likeliest, cmap=colors, vmin=-0.5, vmax=len(decisions) - 0.5, aspect="auto", interpolation="nearest"
+        )
+        # Shade each cell towards white by how far its likeliest decision is from certain.
+        right.imshow(
+            np.ones_like(p), cmap="gray", vmin=0, vmax=1, alpha=1.0 - p, aspect="auto", interpolation="nearest"
+        )
+        right.set_title("likeliest decision given y and m₂ (paler: less likely)", fontsize=9)
+        right.set_xlabel("m₂")
+        _ticks(right.xaxis, [str(k) for k in range(law.shape[1])])
+        from matplotlib.patches import Patch
+
+        shown = sorted(set(likeliest.ravel().tolist()))
+        right.legend(
+            handles=[Patch(color=color(d), label=decisions[d]) for d in shown[:20]],
+            fontsize=7,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            frameon=False,
+        )
+    right.set_ylabel("observation y")
+    _ticks(right.yaxis, observations)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    return fig
+
+
+def _ticks(axis: Any, labels: list[str], rotate: bool = False) -> None:
+    """At most 24 labelled ticks."""
+    step = max(1, math.ceil(len(labels) / 24))
+    axis.set_ticks(range(0, len(labels), step))
+    axis.set_ticklabels(labels[::step], fontsize=7, rotation=60 if rotate else 0)
+
+
+def _stored_world(policy: Policy) -> Any:
+    from ..world import World
+
+    return World.from_dict(policy.world) if policy.world else None
+
+
+def memory_usage(policy: Policy, world: Any = None, episodes: int = 1000, seed: int = 0) -> dict[str, np.ndarray]:
+    """Visit counts over ``episodes`` rollouts: ``"m1_y"`` (|M_1| × Y) and, with two levels or
+    more, ``"m1_m2"`` (|M_1| × |M_2|)."""
+    levels = policy.levels
+    m1_y = np.zeros((levels[0], policy.n_obs), dtype=np.int64)
+    m1_m2 = np.zeros((levels[0], levels[1]), dtype=np.int64) if len(levels) > 1 else None
+    for ro in _rollouts(policy, world, episodes, seed):
+        np.add.at(m1_y, (ro.memory[:, 0], ro.y), 1)
+        if m1_m2 is not None:
+            np.add.at(m1_m2, (ro.memory[:, 0], ro.memory[:, 1]), 1)
+    out = {"m1_y": m1_y}
+    if m1_m2 is not None:
+        out["m1_m2"] = m1_m2
+    return out
+
+
+def memory_heatmap(policy: Policy, world: Any = None, episodes: int = 1000, seed: int = 0, title: str = "") -> Figure:
+    """Heat maps of how the learned memory is used: frequency of (m₁, y), and of (m₁, m₂) when the
+    policy has two levels or more, over ``episodes`` rollouts (log colour scale)."""
+    from matplotlib.colors import LogNorm
+
+    counts = memory_usage(policy, world, episodes, seed)
+    tracking = getattr(world, "name", "") == "target-tracking"
+    panels = [("m1_y", "observation y" + (" (= obs_B + 4·obs_C)" if tracking else ""), "m₁ against the observation")]
+    if "m1_m2" in counts:
+        panels.append(("m1_m2", "m₂", "m₁ against m₂"))
+    fig = figure(figsize=(5.2 * len(panels) + 0.6, 5.0), layout="constrained")
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    total = counts["m1_y"].sum()
+    for ax, (key, xlabel, name) in zip(axes, panels):
+        freq = counts[key] / total
+        positive = freq[freq > 0]
+        vmin = positive.min() if positive.size else 1e-6
+        image = ax.imshow(
+            np.where(freq > 0, freq, np.nan),
+            norm=LogNorm(vmin=vmin, vmax=max(vmin * 1.01, freq.max())),
+            cmap="viridis",
+            aspect="auto",
+            interpolation="nearest",
+        )
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("m₁")
+        for axis, n in ((ax.xaxis, freq.shape[1]), (ax.yaxis, freq.shape[0])):
+            step = max(1, math.ceil(n / 16))
+            axis.set_ticks(range(0, n, step))
+        ax.set_title(f"{name} ({episodes} episodes)", fontsize=9)
+        ax.set_facecolor("0.95")
+        fig.colorbar(image, ax=ax, shrink=0.85, label="frequency")
+    if title:
+        fig.suptitle(title, fontsize=9)
+    return fig
