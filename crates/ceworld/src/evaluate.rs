@@ -70,10 +70,15 @@ impl Evaluation {
             let nan = f64::NAN;
             return Evaluation { episodes: 0, mean: nan, std_error: nan, std: nan, min: nan, max: nan, quantiles };
         }
-        let mean = mean(rewards.iter().copied());
-        let (std, std_error) = spread(rewards, mean);
         let mut sorted = rewards.to_vec();
         sorted.sort_by(f64::total_cmp);
+        // Equal rewards: their mean and spread exactly (a sum would leave rounding noise).
+        let (mean, (std, std_error)) = if sorted[0] == sorted[n - 1] {
+            (sorted[0], (0.0, 0.0))
+        } else {
+            let mean = mean(rewards.iter().copied());
+            (mean, spread(rewards, mean))
+        };
         let quantiles = [0.05, 0.25, 0.5, 0.75, 0.95]
             .into_iter()
             .map(|q| (q, sorted[((q * n as f64).ceil() as usize).clamp(1, n) - 1]))
@@ -203,6 +208,9 @@ mod tests {
     fn finite_rewards_have_a_finite_mean_and_spread() {
         let e = Evaluation::from_rewards(&[1e308; 10]);
         assert_eq!((e.mean, e.std, e.std_error), (1e308, 0.0, 0.0));
+        // 10,000 rewards of 0.1: a sum would give a mean of 0.09999999999999…, a spread of 1e-17.
+        let e = Evaluation::from_rewards(&vec![0.1; 10_000]);
+        assert_eq!((e.mean, e.std, e.std_error), (0.1, 0.0, 0.0));
         let e = Evaluation::from_rewards(&[1.5e308, 0.5e308, 1.5e308, 0.5e308]);
         assert!((e.mean / 1e308 - 1.0).abs() < 1e-12, "{}", e.mean);
         assert!(e.std.is_finite() && (e.std / (0.5e308 * (4.0f64 / 3.0).sqrt()) - 1.0).abs() < 1e-12, "{}", e.std);

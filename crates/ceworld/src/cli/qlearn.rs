@@ -105,10 +105,10 @@ pub(crate) struct QlearnArgs {
 
 #[derive(clap::Args)]
 pub(crate) struct QlearnEvalArgs {
-    /// A Q table saved by `ceworld qlearn` (its greedy policy is evaluated).
+    /// A Q table saved by `qlearn` (its greedy policy is evaluated).
     table: Option<PathBuf>,
     /// An HHMM policy file (JSON, model §6) to evaluate on the same windows, e.g. a CE policy
-    /// with levels [16] from `ceworld optimize --case 3 --levels 16`; repeatable.
+    /// with levels [16] from `optimize --case 3 --levels 16`; repeatable.
     #[arg(long = "ce-policy", value_name = "FILE.json")]
     ce_policies: Vec<PathBuf>,
     /// How the greedy policy breaks ties: "random" or "lowest" (default: as in learning).
