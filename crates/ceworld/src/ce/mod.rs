@@ -11,5 +11,6 @@ pub mod limits;
 pub mod optimize;
 pub mod posterior;
 pub mod record;
+pub mod rerun;
 pub mod resume;
 pub mod stopping;
