@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use numpy::ndarray::{ArrayD, IxDyn};
-use numpy::{IntoPyArray, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use serde_json::{Value, json};
@@ -228,6 +228,60 @@ impl PyPolicy {
         let rewards = rewards?;
         let evaluation = ceworld::Evaluation::from_rewards(&rewards);
         Ok(PyEvaluation(evaluation))
+    }
+
+    /// Rewards of episodes `first..first + n` of `(seed, purpose, iteration)` (`purpose`:
+    /// "optimise", "evaluate" or "select"): a shard of an iteration's or an evaluation's
+    /// episodes, as a worker elsewhere runs it; the very rewards of those episodes here.
+    #[pyo3(signature = (world, seed, purpose, iteration, first, n))]
+    #[allow(clippy::too_many_arguments)]
+    fn shard_rewards<'py>(
+        &self,
+        py: Python<'py>,
+        world: &Bound<'py, PyAny>,
+        seed: &Bound<'py, PyAny>,
+        purpose: &str,
+        iteration: &Bound<'py, PyAny>,
+        first: &Bound<'py, PyAny>,
+        n: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let streams = ceworld::episodes::Streams {
+            seed: self::seed("seed", seed)?,
+            purpose: ceworld::rng::Purpose::of_episodes(purpose).or_raise()?,
+            iteration: self::seed("iteration", iteration)?,
+        };
+        let (first, n) = (count("first", first)?, count("n", n)?);
+        ceworld::evaluate::check_episodes(n).or_raise()?;
+        let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
+        let rewards = world.run(py, |w| {
+            let mut values = vec![0.0; n];
+            let batch = ceworld::episodes::Batch { values: &mut values, records: None };
+            ceworld::evaluate::check_fits(w, policy)?;
+            w.run(policy, streams, first, batch).map(|()| values)
+        })?;
+        Ok(PyArray1::from_vec(py, rewards))
+    }
+
+    /// The sampled counts (laid out as the flat tables) of `episodes` of iteration `iteration`
+    /// of a run seeded `seed`, each re-run from its stream and counted
+    /// (`ceworld::ce::rerun::rerun_counts`): what a worker sends back instead of trajectories.
+    #[pyo3(signature = (world, seed, iteration, episodes))]
+    fn rerun_counts<'py>(
+        &self,
+        py: Python<'py>,
+        world: &Bound<'py, PyAny>,
+        seed: &Bound<'py, PyAny>,
+        iteration: &Bound<'py, PyAny>,
+        episodes: Vec<usize>,
+    ) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let streams = ceworld::episodes::Streams {
+            seed: self::seed("seed", seed)?,
+            purpose: ceworld::rng::Purpose::Optimise,
+            iteration: self::seed("iteration", iteration)?,
+        };
+        let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
+        let counts = world.run(py, |w| ceworld::ce::rerun::rerun_counts(w, policy, streams, &episodes))?;
+        Ok(PyArray1::from_vec(py, counts))
     }
 
     /// One recorded episode: episode `episode` of `evaluate(world, _, seed)`.

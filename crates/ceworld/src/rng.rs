@@ -37,6 +37,21 @@ pub enum Purpose {
     Controllers = 11,
 }
 
+impl Purpose {
+    /// The purposes of episodes that may be run elsewhere (a shard of an iteration, of an
+    /// evaluation or of a restart's selection), by name.
+    pub const OF_EPISODES: [(&'static str, Purpose); 3] =
+        [("optimise", Purpose::Optimise), ("evaluate", Purpose::Evaluate), ("select", Purpose::Select)];
+
+    /// The purpose of episodes named `name` (one of [`Purpose::OF_EPISODES`]).
+    pub fn of_episodes(name: &str) -> crate::error::Result<Purpose> {
+        Purpose::OF_EPISODES.iter().find(|(n, _)| *n == name).map(|&(_, p)| p).ok_or_else(|| {
+            let names: Vec<&str> = Purpose::OF_EPISODES.iter().map(|(n, _)| *n).collect();
+            crate::error::Error::invalid("purpose", format!("{name:?} (expected one of {names:?})"))
+        })
+    }
+}
+
 /// `SplitMix64`'s finaliser: a bijective 64-bit mixer with good avalanche.
 #[inline]
 pub fn mix64(mut z: u64) -> u64 {
