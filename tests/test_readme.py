@@ -141,11 +141,11 @@ def run_shell(block: Block, work: Path, used: set[str], ran: set[str]) -> None:
     env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}")
     env.pop("CEHMM_THREADS", None)
     for k, (original, line) in enumerate(zip(block.code.split("\n"), code.split("\n")), start=1):
-        command = re.sub(r"\s+#.*$", "", line).strip()
+        command, written = _command(line), _command(original)
         if not command:
             continue
-        if re.sub(r"\s+#.*$", "", original).strip() in NOT_RUN:
-            ran.add(re.sub(r"\s+#.*$", "", original).strip())
+        if written in NOT_RUN:
+            ran.add(written)
             continue
         where = f"README.md line {block.line + k - 1}: {command}"
         started = time.perf_counter()
@@ -166,6 +166,11 @@ def run_shell(block: Block, work: Path, used: set[str], ran: set[str]) -> None:
         want = expected(original)
         if want is not None and k not in changed:
             assert matches(done.stdout + done.stderr, want, whole=False), f"{where}\nprints:\n{done.stdout[-2000:]}"
+
+
+def _command(line: str) -> str:
+    """A shell line without its trailing comment."""
+    return re.sub(r"\s+#.*$", "", line).strip()
 
 
 def run_python(block: Block, namespace: dict, used: set[str]) -> None:

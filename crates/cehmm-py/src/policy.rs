@@ -256,7 +256,7 @@ impl PyPolicy {
         let rewards = world.run(py, |w| {
             let mut values = vec![0.0; n];
             let batch = ceworld::episodes::Batch { values: &mut values, records: None };
-            ceworld::evaluate::check_fits(w, policy)?;
+            check_fits(w, policy)?;
             w.run(policy, streams, first, batch).map(|()| values)
         })?;
         Ok(PyArray1::from_vec(py, rewards))

@@ -74,7 +74,7 @@ def policy_graph(policy: Policy, world: Any = None, prune: float = _core.GRAPH_P
         label = label if labelled else ""
         if a == b:
             # A loop: a small circle outside the node, away from the centre.
-            out = at[a] / (np.linalg.norm(at[a]) or 1.0) if n > 1 else np.array([0.0, 1.0])
+            out = _outward(at[a], n)
             centre = at[a] + 0.2 * out
             ax.add_patch(_loop(centre, 0.09))
             ax.text(*(at[a] + 0.36 * out), label, ha="center", va="center", fontsize=6.5, color="0.25")
@@ -101,7 +101,7 @@ def policy_graph(policy: Policy, world: Any = None, prune: float = _core.GRAPH_P
     for k, p in graph["initial"]:
         k = int(k)
         # From the side (a node's loop is drawn outwards).
-        out = at[k] / (np.linalg.norm(at[k]) or 1.0) if n > 1 else np.array([0.0, 1.0])
+        out = _outward(at[k], n)
         start = at[k] + 0.45 * np.array([-out[1], out[0]]) + 0.25 * out
         ax.add_patch(FancyArrowPatch(start, at[k], arrowstyle="-|>", mutation_scale=11, shrinkB=18, color="tab:green"))
         ax.text(*start, "start" + _probability(p), ha="center", va="center", fontsize=7, color="tab:green")
@@ -110,6 +110,11 @@ def policy_graph(policy: Policy, world: Any = None, prune: float = _core.GRAPH_P
     unlabelled = "" if labelled else "; too many arrows to label them"
     ax.set_title(title or f"policy graph: {n} nodes (laws ≤ {prune:g} left out{unlabelled})", fontsize=9)
     return fig
+
+
+def _outward(point: np.ndarray, n: int) -> np.ndarray:
+    """The unit vector from the circle's centre out through a node (up for a lone node)."""
+    return point / (np.linalg.norm(point) or 1.0) if n > 1 else np.array([0.0, 1.0])
 
 
 def _loop(centre: np.ndarray, r: float) -> Any:

@@ -42,6 +42,14 @@ def _grid(rollout: Any, world: Any) -> dict[str, int]:
     return params
 
 
+def _rewarded(x: np.ndarray, radius: int) -> np.ndarray:
+    """Per step of a target-tracking state ``x``, whether a mobile is within ``radius`` of the
+    target (Chebyshev distance: the reward of model §4)."""
+    near_b = np.abs(x[:, 0:2] - x[:, 6:8]).max(axis=1)
+    near_c = np.abs(x[:, 3:5] - x[:, 6:8]).max(axis=1)
+    return np.minimum(near_b, near_c) <= radius
+
+
 def pick_episode(policy: Policy, world: TargetTracking, seed: int = 0, candidates: int = 50) -> int:
     """The first of ``candidates`` episodes whose reward is nearest the policy's mean over them."""
     rewards = np.array([policy.rollout(world, seed=seed, episode=k).reward for k in range(candidates)])
@@ -162,9 +170,7 @@ def _grid_figure(
     ax.set_ylabel("j (row)")
 
     radius = params["reward_radius"]
-    near_b = np.abs(x[:, 0:2] - x[:, 6:8]).max(axis=1)
-    near_c = np.abs(x[:, 3:5] - x[:, 6:8]).max(axis=1)
-    rewarded = np.minimum(near_b, near_c) <= radius
+    rewarded = _rewarded(x, radius)
 
     specs = [
         ("target", 6, 7, dict(marker="x", color="tab:red", markersize=9, markeredgewidth=2), (7, -11)),
@@ -331,7 +337,7 @@ def animation(
     marks = [ax.plot([], [], linestyle="none", label=label, **style)[0] for _, style, label in styles]
     trails = [ax.plot([], [], "-", color=style["color"], alpha=0.4, linewidth=1.2)[0] for _, style, _ in styles]
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=3, fontsize=7, frameon=False)
-    near = np.minimum(np.abs(x[:, 0:2] - x[:, 6:8]).max(axis=1), np.abs(x[:, 3:5] - x[:, 6:8]).max(axis=1)) <= radius
+    near = _rewarded(x, radius)
     so_far = np.cumsum(near)
 
     def draw(t: int) -> list[Any]:
