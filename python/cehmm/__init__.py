@@ -45,6 +45,7 @@ from .outside import PythonWorld
 from .policy import Policy
 from .pomdp import PomdpWorld
 from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
+from .ray_backend import RayBackend
 from .tracking import TargetTracking
 from .world import World
 
@@ -68,6 +69,7 @@ __all__ = [
     "PomdpWorld",
     "PythonWorld",
     "QLearner",
+    "RayBackend",
     "Rollout",
     "TargetTracking",
     "WindowEvaluation",

@@ -22,6 +22,8 @@ __all__ = [
     "World",
     "WorldError",
     "OutsideWorld",
+    "RemoteWorld",
+    "controller_values",
     "ExactValue",
     "Policy",
     "Evaluation",
@@ -144,6 +146,16 @@ class World:
     def state_labels(self) -> list[str]: ...
     def exact_optimum(self) -> float: ...
     def model(self) -> dict[str, Any]: ...
+
+@final
+class RemoteWorld:
+    """A world whose episodes a backend samples elsewhere (``cehmm.ray_backend``)."""
+
+    def __new__(cls, backend: Any, world: World | OutsideWorld) -> RemoteWorld: ...
+    @property
+    def backend(self) -> Any: ...
+    @property
+    def description(self) -> dict[str, Any]: ...
 
 @final
 class OutsideWorld:
@@ -272,10 +284,22 @@ class Policy:
     ) -> Evaluation: ...
     def rollout(self, world: World | OutsideWorld, seed: int, episode: int) -> Rollout: ...
     def shard_rewards(
-        self, world: World | OutsideWorld, seed: int, purpose: str, iteration: int, first: int, n: int
+        self,
+        world: World | OutsideWorld,
+        seed: int,
+        purpose: str,
+        iteration: int,
+        first: int,
+        n: int,
+        threads: int | None = None,
     ) -> npt.NDArray[np.float64]: ...
     def rerun_counts(
-        self, world: World | OutsideWorld, seed: int, iteration: int, episodes: Sequence[int]
+        self,
+        world: World | OutsideWorld,
+        seed: int,
+        iteration: int,
+        episodes: Sequence[int],
+        threads: int | None = None,
     ) -> npt.NDArray[np.uint32]: ...
     def evaluate_exact(self, world: World, horizon: int | None, infinite: bool, tolerance: float) -> ExactValue: ...
     def graph(self, world: World, form: str, prune: float) -> Any: ...
@@ -304,6 +328,15 @@ class OptimizeOutcome:
     @property
     def seconds(self) -> float: ...
 
+def controller_values(
+    world: World | OutsideWorld,
+    controllers: str,
+    seed: int,
+    purpose: str,
+    iteration: int,
+    episodes: int,
+    threads: int | None = None,
+) -> npt.NDArray[np.float64]: ...
 def cli(args: Sequence[str | os.PathLike[str]]) -> int: ...
 def optimize(
     world: World | OutsideWorld,

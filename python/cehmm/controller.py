@@ -14,6 +14,7 @@ from . import _core
 from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
+from .ray_backend import RayBackend, sampled_world
 from .world import core_world
 
 #: The engine's defaults (one home: ``ceworld::ControllerConfig::default()``).
@@ -112,6 +113,9 @@ def optimize_controller(
     score: Score | None = None,
     discount: float | None = None,
     horizon: int | None = None,
+    backend: str | RayBackend = "local",
+    workers: int | None = None,
+    address: str | None = None,
 ) -> ControllerResult:
     """Searches a deterministic ``nodes``-node controller of ``world`` by the cross-entropy
     method over whole controllers (model §8).
@@ -191,6 +195,11 @@ def optimize_controller(
             ``(observations, decisions, rewards)`` (default: the sum of the rewards).
         discount: for a world written in Python, the discount of the default score.
         horizon: for a world written in Python, the most steps of an episode (default: its own).
+        backend: ``"local"``, ``"ray"`` (every iteration's controllers valued in shards on a Ray
+            cluster, the same result bit for bit; sampled values only) or a
+            :class:`~cehmm.RayBackend` (see :func:`optimize`).
+        workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
+        address: with ``backend="ray"``: the cluster to join.
 
     Returns:
         a :class:`ControllerResult`.
@@ -209,7 +218,7 @@ def optimize_controller(
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
     with _sigterm_interrupts(checkpoint is not None):
         raw = _core.optimize_controller(
-            core_world(world, **options),
+            sampled_world(core_world(world, **options), world, options, backend, workers, address),
             dict(
                 nodes=nodes,
                 smoothing=smoothing,

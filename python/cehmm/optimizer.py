@@ -16,6 +16,7 @@ from . import _core
 from ._core import Evaluation
 from .outside import Score
 from .policy import Policy
+from .ray_backend import RayBackend, sampled_world
 from .world import core_world
 
 #: What :func:`optimize` starts from.
@@ -119,6 +120,9 @@ def optimize(
     score: Score | None = None,
     discount: float | None = None,
     horizon: int | None = None,
+    backend: str | RayBackend = "local",
+    workers: int | None = None,
+    address: str | None = None,
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (model §3).
 
@@ -176,6 +180,12 @@ def optimize(
             ``(observations, decisions, rewards)`` (default: the sum of the rewards).
         discount: for a world written in Python, the discount of the default score.
         horizon: for a world written in Python, the most steps of an episode (default: its own).
+        backend: ``"local"`` (this process's threads), ``"ray"`` (shards of every iteration's
+            episodes sampled on a Ray cluster, the same result bit for bit; needs
+            ``memory_update="sampled"``) or a :class:`~cehmm.RayBackend`.
+        workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
+        address: with ``backend="ray"``: the cluster to join (default: the one this process
+            joined, else a new local one).
 
     Returns:
         an :class:`OptimizeResult`.
@@ -193,11 +203,12 @@ def optimize(
         (5, 5)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    engine_world = core_world(world, **options)
+    local = core_world(world, **options)
+    sampled = sampled_world(local, world, options, backend, workers, address)
     with _sigterm_interrupts(checkpoint is not None):
         raw = _core.optimize(
-            engine_world,
-            _initial(engine_world, levels, init, seed)._core,
+            sampled,
+            _initial(local, levels, init, seed)._core,
             dict(
                 samples=samples,
                 rho=rho,

@@ -10,6 +10,7 @@ import numpy as np
 
 from . import _core
 from ._core import Agent, Evaluation, ExactValue, InvalidArgumentError, PolicyFormatError, Rollout
+from .ray_backend import RayBackend, sampled_world
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -179,6 +180,9 @@ class Policy:
         episodes: int = 10000,
         seed: int = 0,
         threads: int | None = None,
+        backend: str | RayBackend = "local",
+        workers: int | None = None,
+        address: str | None = None,
     ) -> Evaluation:
         """The reward over ``episodes`` fresh episodes (reproducible from ``seed``, whatever ``threads``).
 
@@ -188,11 +192,17 @@ class Policy:
             episodes: number of episodes.
             seed: seed of the episodes; episode ``k`` is :meth:`rollout` ``(world, seed, episode=k)``.
             threads: worker threads (default: one per core).
+            backend: ``"local"``, ``"ray"`` (the episodes run in shards on a Ray cluster, the
+                same rewards) or a :class:`~cehmm.RayBackend` (see :func:`~cehmm.optimize`).
+            workers: with ``backend="ray"``: shards (default: the cluster's CPUs).
+            address: with ``backend="ray"``: the cluster to join.
 
         Raises:
             PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
         """
-        return self._core.evaluate(core_world(self._world(world)), episodes, seed, threads)
+        world = self._world(world)
+        sampled = sampled_world(core_world(world), world, {}, backend, workers, address)
+        return self._core.evaluate(sampled, episodes, seed, threads)
 
     def evaluate_exact(
         self,

@@ -115,7 +115,7 @@ pub fn optimize_controller(
     // The defaults of the kind of value the search will use.
     let resolved = match &world {
         WorldArg::Engine(w) => Valued::of(&w.world, kind).or_raise()?.kind(),
-        WorldArg::Outside(_) => ValueKind::Sampled,
+        WorldArg::Outside(_) | WorldArg::Remote(_) => ValueKind::Sampled,
     };
     let mut config = ControllerConfig::defaults_for(resolved);
     apply_settings(&mut config, settings)?;
@@ -138,13 +138,14 @@ pub fn optimize_controller(
             };
             signals.watch(py, search)?.or_raise()
         }
-        WorldArg::Outside(_) => {
+        WorldArg::Outside(_) | WorldArg::Remote(_) => {
             if kind == Some(ValueKind::Exact) {
-                return Err(Error::invalid(
-                    "value",
-                    "\"exact\" for a world written in Python (exact values need a cehmm.PomdpWorld; use \"sampled\")",
-                ))
-                .or_raise();
+                let what = if matches!(world, WorldArg::Remote(_)) {
+                    "a world sampled elsewhere (exact values are computed here: cehmm.PomdpWorld without a backend)"
+                } else {
+                    "a world written in Python (exact values need a cehmm.PomdpWorld; use \"sampled\")"
+                };
+                return Err(Error::invalid("value", format!("\"exact\" for {what}"))).or_raise();
             }
             world.run_watched(py, &mut signals, |w| {
                 run(Valued::Sampled(w), &config, checkpointing, progress, &interrupt)

@@ -23,6 +23,7 @@ mod optimize;
 mod outside;
 mod policy;
 mod qlearn;
+mod remote;
 mod results;
 mod signals;
 mod stepping;
@@ -50,6 +51,8 @@ mod _core {
     use super::policy::PyPolicy;
     #[pymodule_export]
     use super::qlearn::{PyQLearner, evaluate_policy_windows};
+    #[pymodule_export]
+    use super::remote::{PyRemoteWorld, controller_values};
     #[pymodule_export]
     use super::results::{PyEvaluation, PyExactValue, PyRollout, PyWindowEvaluation};
     #[pymodule_export]

@@ -347,6 +347,8 @@ pub enum WorldArg<'py> {
     Engine(PyRef<'py, PyWorld>),
     /// A world written in Python.
     Outside(PyRef<'py, PyOutsideWorld>),
+    /// A world whose episodes a backend samples elsewhere.
+    Remote(PyRef<'py, crate::remote::PyRemoteWorld>),
 }
 
 impl<'py> WorldArg<'py> {
@@ -354,6 +356,9 @@ impl<'py> WorldArg<'py> {
     pub fn of(world: &Bound<'py, PyAny>) -> PyResult<Self> {
         if let Ok(w) = world.extract::<PyRef<'py, PyWorld>>() {
             return Ok(WorldArg::Engine(w));
+        }
+        if let Ok(w) = world.extract::<PyRef<'py, crate::remote::PyRemoteWorld>>() {
+            return Ok(WorldArg::Remote(w));
         }
         world.extract::<PyRef<'py, PyOutsideWorld>>().map(WorldArg::Outside).map_err(|_| {
             pyo3::exceptions::PyTypeError::new_err(format!(
@@ -404,7 +409,28 @@ impl<'py> WorldArg<'py> {
                 }
             }
             WorldArg::Outside(w) => run_outside(py, w, signals, |lockstep| f(lockstep)),
+            WorldArg::Remote(w) => {
+                let interrupt = signals.as_ref().map(|s| s.interrupt().clone()).unwrap_or_default();
+                let remote = w.episodes(py, interrupt);
+                let result = match signals {
+                    None => py.detach(|| ceworld::catch_panics(|| f(&remote))),
+                    Some(signals) => signals.watch(py, || ceworld::catch_panics(|| f(&remote)))?,
+                };
+                surface(py, result, remote.into_raised())
+            }
         }
+    }
+}
+
+/// `result`, or the exception the world's code raised (with its traceback) where that is what
+/// failed, a note naming where it happened.
+fn surface<T>(py: Python<'_>, result: ceworld::Result<T>, raised: Option<PyErr>) -> PyResult<T> {
+    match (result, raised) {
+        (Err(error), Some(exception)) => {
+            let _ = exception.value(py).call_method1("add_note", (error.to_string(),));
+            Err(exception)
+        }
+        (result, _) => result.map_err(raise),
     }
 }
 
@@ -424,13 +450,5 @@ pub fn run_outside<T: Send>(
             signals.watch(py, || ceworld::catch_panics(|| f(lockstep)))?
         }
     };
-    let raised = lockstep.into_inner().raised;
-    match (result, raised) {
-        (Err(error), Some(exception)) => {
-            // The world's own exception, with its traceback; where it happened as a note.
-            let _ = exception.value(py).call_method1("add_note", (error.to_string(),));
-            Err(exception)
-        }
-        (result, _) => result.map_err(raise),
-    }
+    surface(py, result, lockstep.into_inner().raised)
 }

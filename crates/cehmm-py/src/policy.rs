@@ -233,7 +233,7 @@ impl PyPolicy {
     /// Rewards of episodes `first..first + n` of `(seed, purpose, iteration)` (`purpose`:
     /// "optimise", "evaluate" or "select"): a shard of an iteration's or an evaluation's
     /// episodes, as a worker elsewhere runs it; the very rewards of those episodes here.
-    #[pyo3(signature = (world, seed, purpose, iteration, first, n))]
+    #[pyo3(signature = (world, seed, purpose, iteration, first, n, threads = None))]
     #[allow(clippy::too_many_arguments)]
     fn shard_rewards<'py>(
         &self,
@@ -244,6 +244,7 @@ impl PyPolicy {
         iteration: &Bound<'py, PyAny>,
         first: &Bound<'py, PyAny>,
         n: &Bound<'py, PyAny>,
+        threads: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let streams = ceworld::episodes::Streams {
             seed: self::seed("seed", seed)?,
@@ -253,11 +254,12 @@ impl PyPolicy {
         let (first, n) = (count("first", first)?, count("n", n)?);
         ceworld::evaluate::check_episodes(n).or_raise()?;
         let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
+        let pool = thread_pool(optional_count("threads", threads)?).or_raise()?;
         let rewards = world.run(py, |w| {
             let mut values = vec![0.0; n];
             let batch = ceworld::episodes::Batch { values: &mut values, records: None };
             check_fits(w, policy)?;
-            w.run(policy, streams, first, batch).map(|()| values)
+            pool.install(|| w.run(policy, streams, first, batch)).map(|()| values)
         })?;
         Ok(PyArray1::from_vec(py, rewards))
     }
@@ -265,7 +267,7 @@ impl PyPolicy {
     /// The sampled counts (laid out as the flat tables) of `episodes` of iteration `iteration`
     /// of a run seeded `seed`, each re-run from its stream and counted
     /// (`ceworld::ce::rerun::rerun_counts`): what a worker sends back instead of trajectories.
-    #[pyo3(signature = (world, seed, iteration, episodes))]
+    #[pyo3(signature = (world, seed, iteration, episodes, threads = None))]
     fn rerun_counts<'py>(
         &self,
         py: Python<'py>,
@@ -273,6 +275,7 @@ impl PyPolicy {
         seed: &Bound<'py, PyAny>,
         iteration: &Bound<'py, PyAny>,
         episodes: Vec<usize>,
+        threads: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<u32>>> {
         let streams = ceworld::episodes::Streams {
             seed: self::seed("seed", seed)?,
@@ -280,7 +283,9 @@ impl PyPolicy {
             iteration: self::seed("iteration", iteration)?,
         };
         let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
-        let counts = world.run(py, |w| ceworld::ce::rerun::rerun_counts(w, policy, streams, &episodes))?;
+        let pool = thread_pool(optional_count("threads", threads)?).or_raise()?;
+        let counts =
+            world.run(py, |w| pool.install(|| ceworld::ce::rerun::rerun_counts(w, policy, streams, &episodes)))?;
         Ok(PyArray1::from_vec(py, counts))
     }
 
@@ -302,6 +307,12 @@ impl PyPolicy {
             }
             WorldArg::Outside(w) => {
                 run_outside(py, &w, None, |w| ceworld::episodes::outside::rollout(w, policy, seed, episode))?
+            }
+            WorldArg::Remote(_) => {
+                return Err(raise(Error::invalid(
+                    "world",
+                    "a world sampled elsewhere (a rollout is one episode, recorded here: roll out the world itself)",
+                )));
             }
         };
         Ok(PyRollout(recorded))

@@ -39,9 +39,19 @@ pub enum Purpose {
 
 impl Purpose {
     /// The purposes of episodes that may be run elsewhere (a shard of an iteration, of an
-    /// evaluation or of a restart's selection), by name.
-    pub const OF_EPISODES: [(&'static str, Purpose); 3] =
-        [("optimise", Purpose::Optimise), ("evaluate", Purpose::Evaluate), ("select", Purpose::Select)];
+    /// evaluation, of a restart's or a controller's selection, of a controller search's
+    /// iteration), by name.
+    pub const OF_EPISODES: [(&'static str, Purpose); 4] = [
+        ("optimise", Purpose::Optimise),
+        ("evaluate", Purpose::Evaluate),
+        ("select", Purpose::Select),
+        ("controllers", Purpose::Controllers),
+    ];
+
+    /// The name of a purpose of [`Purpose::OF_EPISODES`] (`None` for the others).
+    pub fn episodes_name(self) -> Option<&'static str> {
+        Purpose::OF_EPISODES.iter().find(|(_, p)| *p == self).map(|&(n, _)| n)
+    }
 
     /// The purpose of episodes named `name` (one of [`Purpose::OF_EPISODES`]).
     pub fn of_episodes(name: &str) -> crate::error::Result<Purpose> {

@@ -13,7 +13,7 @@ use crate::ce::record::{CeResult, IterationRecord};
 use crate::ce::resume::{Checkpointing, Saver};
 use crate::ce::stopping::StopReason;
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
-use crate::episodes::{Batch, Episodes, Streams};
+use crate::episodes::{Batch, Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::{Evaluation, check_fits, closing_rewards};
 use crate::policy::{Hhmm, Layout};
@@ -179,6 +179,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     let horizon = world.shape().horizon;
     let stride = horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
+    let remote = remote_of(world, config)?;
     let started = Instant::now();
     let RunState { mut policy, mut history, mut best, mut unsuccessful } =
         resume.unwrap_or(RunState { policy: initial, history: Vec::new(), best: None, unsuccessful: 0 });
@@ -187,49 +188,48 @@ fn optimize_once<E: Episodes + ?Sized>(
     // A resumed run whose last iteration meets a stopping rule (the same as before with the same
     // settings; new stopping rules may let it go on) ends at once.
     let mut stop = history.last().and_then(|r| stopping_rule(config, r, unsuccessful));
-    let mut records = vec![0u16; if stop.is_some() { 0 } else { n * stride }];
+    // Episodes sampled elsewhere keep their records there.
+    let recorded = stop.is_none() && remote.is_none();
+    let mut records = vec![0u16; if recorded { n * stride } else { 0 }];
     let mut rewards = vec![0.0f64; n];
-    let mut lengths = vec![0u32; if stop.is_some() { 0 } else { n }];
+    let mut lengths = vec![0u32; if recorded { n } else { 0 }];
     let mut keys = vec![0u64; n];
     let mut order: Vec<usize> = (0..n).collect();
     let chunk = elite_count.div_ceil(pool.current_num_threads()).max(1);
     while stop.is_none() {
-        let iteration = history.len();
-        let seed = config.seed;
-        let ran = pool.install(|| {
-            let batch = Batch { values: &mut rewards, records: Some((&mut records, &mut lengths)) };
-            world.run(&policy, Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 }, 0, batch)
+        let (iteration, seed) = (history.len(), config.seed);
+        let streams = Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 };
+        let sampled = pool.install(|| {
+            let records = remote.is_none().then_some((&mut records[..], &mut lengths[..]));
+            world.run(&policy, streams, 0, Batch { values: &mut rewards, records })
         });
-        if let Err(e) = ran {
-            if !matches!(e, Error::Interrupted) {
-                return Err(e);
-            }
-            // Cut by an interrupt: the iteration is dropped (a resumed run draws it again), the
-            // state is the one after the last whole iteration.
-            stop = Some(StopReason::Interrupted);
-            if best.is_some() {
-                saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful));
-            }
-            break;
-        }
-        pool.install(|| {
-            keys.par_iter_mut().enumerate().for_each(|(k, key)| {
-                *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
-            });
+        let counted = sampled.and_then(|()| {
+            let threshold = select_elite(&rewards, &mut keys, &mut order, elite_count, seed, iteration, &pool);
+            let elite = &order[..elite_count];
+            let counts = if let Some(remote) = remote {
+                Counts::Integer(remote.counts(&policy, streams, elite)?)
+            } else {
+                // Each episode's record up to where it stopped (model §1): counting stops there too.
+                let record_of =
+                    |k: usize| &records[k * stride..k * stride + lengths[k] as usize * layout.record_width()];
+                pool.install(|| count_elite(&policy, elite, &record_of, config.memory_update, chunk))
+            };
+            Ok((threshold, counts))
         });
-        // A strict total order (reward, then random key, then index): the elite set is the
-        // same whatever the algorithm, and selection is O(N) where a sort would be O(N log N).
-        let better =
-            |&a: &usize, &b: &usize| rewards[b].total_cmp(&rewards[a]).then(keys[a].cmp(&keys[b])).then(a.cmp(&b));
-        order.iter_mut().enumerate().for_each(|(k, o)| *o = k);
-        if elite_count < n {
-            order.select_nth_unstable_by(elite_count - 1, better);
-        }
+        let (threshold, counts) = match counted {
+            Ok(counted) => counted,
+            Err(Error::Interrupted) => {
+                // Cut by an interrupt: the iteration is dropped (a resumed run draws it again),
+                // the state is the one after the last whole iteration.
+                stop = Some(StopReason::Interrupted);
+                if best.is_some() {
+                    saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful));
+                }
+                break;
+            }
+            Err(e) => return Err(e),
+        };
         let elite = &order[..elite_count];
-        let threshold = elite.iter().copied().max_by(better).expect("the elite is never empty");
-        // Each episode's record up to where it stopped (model §1): counting stops there too.
-        let record_of = |k: usize| &records[k * stride..k * stride + lengths[k] as usize * layout.record_width()];
-        let counts = pool.install(|| count_elite(&policy, elite, &record_of, config.memory_update, chunk));
 
         let mean = crate::evaluate::mean(rewards.iter().copied());
         let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
@@ -281,6 +281,46 @@ fn optimize_once<E: Episodes + ?Sized>(
         restart_scores: Vec::new(),
         checkpoint_error: None,
     })
+}
+
+/// Where the episodes are sampled elsewhere, what counts the elite there; refuses the
+/// forward–backward update, whose counts need the records here.
+fn remote_of<'a, E: Episodes + ?Sized>(world: &'a E, config: &CeConfig) -> Result<Option<&'a dyn Remote>> {
+    let remote = world.remote();
+    if remote.is_some() && config.memory_update == MemoryUpdate::ForwardBackward {
+        return Err(Error::invalid(
+            "memory_update",
+            "\"forward-backward\" with episodes sampled elsewhere (expected \"sampled\": their counts are taken where \
+             the episodes were sampled)",
+        ));
+    }
+    Ok(remote)
+}
+
+/// Puts the elite (the best `elite_count` of the iteration's episodes) first in `order` and
+/// returns the worst of them, on `pool`.
+fn select_elite(
+    rewards: &[f64],
+    keys: &mut [u64],
+    order: &mut [usize],
+    elite_count: usize,
+    seed: u64,
+    iteration: usize,
+    pool: &rayon::ThreadPool,
+) -> usize {
+    pool.install(|| {
+        keys.par_iter_mut().enumerate().for_each(|(k, key)| {
+            *key = stream_key(seed, Purpose::TieBreak, iteration as u64, k as u64);
+        });
+    });
+    // A strict total order (reward, then random key, then index): the elite set is the same
+    // whatever the algorithm, and selection is O(N) where a sort would be O(N log N).
+    let better = |&a: &usize, &b: &usize| rewards[b].total_cmp(&rewards[a]).then(keys[a].cmp(&keys[b])).then(a.cmp(&b));
+    order.iter_mut().enumerate().for_each(|(k, o)| *o = k);
+    if elite_count < order.len() {
+        order.select_nth_unstable_by(elite_count - 1, better);
+    }
+    order[..elite_count].iter().copied().max_by(better).expect("the elite is never empty")
 }
 
 /// A run's state, to be saved.

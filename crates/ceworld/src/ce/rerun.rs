@@ -84,4 +84,81 @@ mod tests {
         let other = Streams { iteration: 4, ..streams };
         assert_ne!(rerun_counts(&world, &policy, other, &elite).unwrap(), expected);
     }
+
+    /// A world whose episodes are run without records and whose elite is counted by re-running
+    /// it, as a backend elsewhere does: in shards of `shard` episodes, the last ones first.
+    struct Elsewhere<W> {
+        world: W,
+        shard: usize,
+    }
+
+    impl<W: crate::World> Episodes for Elsewhere<W> {
+        fn shape(&self) -> crate::episodes::Shape {
+            Episodes::shape(&self.world)
+        }
+        fn description(&self) -> serde_json::Value {
+            Episodes::description(&self.world)
+        }
+        fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+            assert!(batch.records.is_none(), "episodes sampled elsewhere are run without records");
+            for (k, values) in batch.values.chunks_mut(self.shard).enumerate() {
+                let part = Batch { values, records: None };
+                Episodes::run(&self.world, policy, streams, first + k * self.shard, part)?;
+            }
+            Ok(())
+        }
+        fn run_controllers(
+            &self,
+            controllers: &[crate::policy::controller::Controller],
+            streams: Streams,
+            episodes: usize,
+            values: &mut [f64],
+        ) -> Result<()> {
+            Episodes::run_controllers(&self.world, controllers, streams, episodes, values)
+        }
+        fn remote(&self) -> Option<&dyn crate::episodes::Remote> {
+            Some(self)
+        }
+    }
+
+    impl<W: crate::World> crate::episodes::Remote for Elsewhere<W> {
+        fn counts(&self, policy: &Hhmm, streams: Streams, episodes: &[usize]) -> Result<Vec<u32>> {
+            let mut total = vec![0u32; policy.layout().len];
+            for shard in episodes.chunks(self.shard).rev() {
+                let counts = rerun_counts(&self.world, policy, streams, shard)?;
+                total.iter_mut().zip(&counts).for_each(|(t, c)| *t += c);
+            }
+            Ok(total)
+        }
+    }
+
+    #[test]
+    fn an_optimisation_sampled_elsewhere_is_the_local_one() {
+        use crate::{CeConfig, Flow, MemoryUpdate, optimize};
+        let world = TargetTracking::new(1).unwrap();
+        let initial = random_policy(&world, &[3, 2], 5).unwrap();
+        let config = CeConfig {
+            samples: 120,
+            rho: 0.2,
+            max_iterations: Some(4),
+            eval_episodes: 50,
+            seed: 3,
+            ..CeConfig::default()
+        };
+        let local = optimize(&world, initial.clone(), &config, |_| Flow::Continue).unwrap();
+        for shard in [1, 7, 500] {
+            let remote = Elsewhere { world: TargetTracking::new(1).unwrap(), shard };
+            let elsewhere = optimize(&remote, initial.clone(), &config, |_| Flow::Continue).unwrap();
+            assert_eq!(elsewhere.policy, local.policy);
+            assert_eq!(elsewhere.last_policy, local.last_policy);
+            assert_eq!(elsewhere.evaluation, local.evaluation);
+            let means = |r: &crate::CeResult| r.history.iter().map(|h| h.mean).collect::<Vec<_>>();
+            assert_eq!(means(&elsewhere), means(&local));
+        }
+        // Forward–backward counts are taken from the records: refused elsewhere, by name.
+        let remote = Elsewhere { world, shard: 10 };
+        let fb = CeConfig { memory_update: MemoryUpdate::ForwardBackward, ..config };
+        let e = optimize(&remote, initial, &fb, |_| Flow::Continue).unwrap_err().to_string();
+        assert!(e.contains("memory_update") && e.contains("forward-backward"), "{e}");
+    }
 }

@@ -94,6 +94,21 @@ pub trait Episodes: Sync {
     fn slice(&self) -> usize {
         SLICE
     }
+    /// Where the episodes are sampled elsewhere (other processes, other machines): their
+    /// records stay there and the elite's counts come from [`Remote::counts`]; such a source
+    /// runs its episodes without records. `None` for episodes sampled here.
+    fn remote(&self) -> Option<&dyn Remote> {
+        None
+    }
+}
+
+/// Episodes sampled elsewhere: what stays there (the episodes, their records) is asked for by
+/// the episodes' numbers alone (model §3, the elite's counts).
+pub trait Remote: Sync {
+    /// The sampled counts (laid out as `policy`'s flat tables) of episodes `episodes` of
+    /// `streams` under `policy`: those that their records give, bit for bit
+    /// ([`crate::ce::rerun::rerun_counts`] is how a worker takes them).
+    fn counts(&self, policy: &Hhmm, streams: Streams, episodes: &[usize]) -> Result<Vec<u32>>;
 }
 
 /// Episodes a world run by the engine runs in one slice of a long evaluation: the interrupt
@@ -152,6 +167,10 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
 
     fn slice(&self) -> usize {
         self.episodes.slice()
+    }
+
+    fn remote(&self) -> Option<&dyn Remote> {
+        self.episodes.remote()
     }
 }
 

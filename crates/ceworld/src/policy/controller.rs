@@ -33,6 +33,27 @@ impl Controller {
         self.next[q as usize * n_obs + y]
     }
 
+    /// Checks that this is a controller of a world of `n_obs` observations and `n_actions`
+    /// decisions: at least one node, a decision below `n_actions` per node, a successor below
+    /// the node count per node and observation.
+    pub fn check(&self, n_obs: usize, n_actions: usize) -> Result<()> {
+        let n = self.act.len();
+        let invalid = |why: String| Err(crate::error::Error::invalid("controller", why));
+        if n == 0 || self.next.len() != n * n_obs {
+            return invalid(format!(
+                "{n} nodes and {} successors (expected at least 1 node and nodes · {n_obs} successors)",
+                self.next.len()
+            ));
+        }
+        if let Some(a) = self.act.iter().find(|&&a| a as usize >= n_actions) {
+            return invalid(format!("decision {a} (expected below {n_actions})"));
+        }
+        if let Some(q) = self.next.iter().find(|&&q| q as usize >= n) {
+            return invalid(format!("successor {q} (expected below {n} nodes)"));
+        }
+        Ok(())
+    }
+
     /// The two-level one-hot HHMM of this controller (module docs).
     pub fn to_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
         let n = self.act.len();

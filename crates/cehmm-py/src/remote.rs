@@ -1,0 +1,247 @@
+//! Episodes sampled elsewhere (model §9): `cehmm._core.RemoteWorld`, a world whose episodes a
+//! backend written in Python (`cehmm.ray_backend`) samples on other processes or machines, and
+//! the worker's side of it, `controller_values`. The driver's optimisers run unchanged on a
+//! [`Remote`]: only tables, controllers, episode numbers, rewards, values and counts cross.
+//!
+//! The backend has `rewards(policy, seed, purpose, iteration, first, n)`,
+//! `counts(policy, seed, iteration, episodes)` and
+//! `controller_values(controllers, seed, purpose, iteration, episodes)` (a policy and the
+//! controllers as JSON text), each returning at once a pending answer with `wait(seconds) ->
+//! bool`, `result() -> numpy array` and `cancel()`: the engine waits in short slices, so that
+//! Ctrl-C cancels what is still running.
+
+use std::sync::Mutex;
+
+use numpy::{PyArray1, PyReadonlyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyTuple;
+use serde_json::{Value, json};
+
+use ceworld::episodes::{Batch, Episodes, Shape, Streams};
+use ceworld::policy::controller::Controller;
+use ceworld::rng::Purpose;
+use ceworld::{Error, Hhmm, Interrupt, PolicyFile};
+
+use crate::convert::{count, seed};
+use crate::errors::{OrRaise, raise};
+use crate::outside::WorldArg;
+
+/// How long the engine waits for a pending answer before it looks for Ctrl-C again (seconds).
+const WAIT: f64 = 0.05;
+
+/// A world sampled by `backend`: its shape and description, taken from the world itself.
+#[pyclass(module = "cehmm._core", name = "RemoteWorld", frozen)]
+pub struct PyRemoteWorld {
+    backend: Py<PyAny>,
+    shape: Shape,
+    description: Value,
+}
+
+#[pymethods]
+impl PyRemoteWorld {
+    /// `world` (an engine world or a world written in Python) sampled by `backend`.
+    #[new]
+    fn new(py: Python<'_>, backend: Py<PyAny>, world: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (shape, description) = WorldArg::of(world)?.run(py, |w| Ok((w.shape(), w.description())))?;
+        Ok(PyRemoteWorld { backend, shape, description })
+    }
+
+    /// The backend that samples the episodes.
+    #[getter]
+    fn backend(&self, py: Python<'_>) -> Py<PyAny> {
+        self.backend.clone_ref(py)
+    }
+
+    /// What policy files record of the world.
+    #[getter]
+    fn description<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        crate::convert::to_py(py, &self.description)
+    }
+}
+
+impl PyRemoteWorld {
+    /// The episodes of one run, stopped by `interrupt`.
+    pub fn episodes(&self, py: Python<'_>, interrupt: Interrupt) -> Remote {
+        Remote {
+            backend: self.backend.clone_ref(py),
+            shape: self.shape,
+            description: self.description.clone(),
+            interrupt,
+            raised: Mutex::new(None),
+        }
+    }
+}
+
+/// The episodes of one run on a backend, keeping the first exception the backend raised.
+pub struct Remote {
+    backend: Py<PyAny>,
+    shape: Shape,
+    description: Value,
+    interrupt: Interrupt,
+    raised: Mutex<Option<PyErr>>,
+}
+
+impl Remote {
+    /// The first exception the backend raised (a world's on a worker among them), if any.
+    pub fn into_raised(self) -> Option<PyErr> {
+        self.raised.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Keeps `error` and reports it to the engine.
+    fn keep(&self, py: Python<'_>, error: PyErr) -> Error {
+        let message =
+            format!("raised {}", error.value(py).repr().map_or_else(|_| "an exception".into(), |r| r.to_string()));
+        let mut raised = self.raised.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        raised.get_or_insert(error);
+        Error::World(message)
+    }
+
+    /// The backend's answer to `method(args)`: `len` numbers, waited for in slices of [`WAIT`]
+    /// seconds; a stop asked meanwhile cancels it.
+    fn ask<T: numpy::Element + Copy>(
+        &self,
+        method: &str,
+        args: impl FnOnce(Python<'_>) -> PyResult<Py<PyTuple>>,
+        len: usize,
+    ) -> ceworld::Result<Vec<T>> {
+        self.interrupt.check()?;
+        let pending = Python::attach(|py| {
+            let args = args(py).map_err(|e| self.keep(py, e))?;
+            self.backend.bind(py).call_method1(method, args.bind(py)).map(Bound::unbind).map_err(|e| self.keep(py, e))
+        })?;
+        loop {
+            if let Err(stop) = self.interrupt.check() {
+                Python::attach(|py| pending.bind(py).call_method0("cancel").map(drop).map_err(|e| self.keep(py, e)))?;
+                return Err(stop);
+            }
+            let done = Python::attach(|py| {
+                let done = pending.bind(py).call_method1("wait", (WAIT,)).map_err(|e| self.keep(py, e))?;
+                done.extract::<bool>().map_err(|e| self.keep(py, e))
+            })?;
+            if done {
+                break;
+            }
+        }
+        Python::attach(|py| {
+            let answer = pending.bind(py).call_method0("result").map_err(|e| self.keep(py, e))?;
+            let array: PyReadonlyArray1<'_, T> = answer.extract().map_err(|e| self.keep(py, e))?;
+            let values = array.as_slice().map_err(|e| self.keep(py, e.into()))?;
+            if values.len() != len {
+                return Err(Error::World(format!(
+                    "the backend's {method} gave {} numbers (expected {len})",
+                    values.len()
+                )));
+            }
+            Ok(values.to_vec())
+        })
+    }
+
+    /// `policy` as a policy document: what the workers read.
+    fn policy_json(&self, policy: &Hhmm) -> String {
+        PolicyFile { policy: policy.clone(), world: self.description.clone(), provenance: json!({}) }
+            .to_json()
+            .to_string()
+    }
+}
+
+/// The name of `purpose` as the workers read it.
+fn purpose_name(purpose: Purpose) -> ceworld::Result<&'static str> {
+    purpose.episodes_name().ok_or_else(|| Error::invalid("purpose", format!("{purpose:?} (not run elsewhere)")))
+}
+
+impl Episodes for Remote {
+    fn shape(&self) -> Shape {
+        self.shape
+    }
+
+    fn description(&self) -> Value {
+        self.description.clone()
+    }
+
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> ceworld::Result<()> {
+        if batch.records.is_some() {
+            return Err(Error::invalid("records", "asked of episodes sampled elsewhere (they stay where they ran)"));
+        }
+        let (text, purpose, n) = (self.policy_json(policy), purpose_name(streams.purpose)?, batch.values.len());
+        let rewards = self.ask::<f64>(
+            "rewards",
+            |py| Ok((text, streams.seed, purpose, streams.iteration, first, n).into_pyobject(py)?.unbind()),
+            n,
+        )?;
+        batch.values.copy_from_slice(&rewards);
+        Ok(())
+    }
+
+    fn run_controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+    ) -> ceworld::Result<()> {
+        let text = serde_json::to_string(controllers).expect("controllers serialise");
+        let purpose = purpose_name(streams.purpose)?;
+        let answer = self.ask::<f64>(
+            "controller_values",
+            |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
+            values.len(),
+        )?;
+        values.copy_from_slice(&answer);
+        Ok(())
+    }
+
+    fn interrupt(&self) -> Option<&Interrupt> {
+        Some(&self.interrupt)
+    }
+
+    fn remote(&self) -> Option<&dyn ceworld::episodes::Remote> {
+        Some(self)
+    }
+}
+
+impl ceworld::episodes::Remote for Remote {
+    fn counts(&self, policy: &Hhmm, streams: Streams, episodes: &[usize]) -> ceworld::Result<Vec<u32>> {
+        let text = self.policy_json(policy);
+        let episodes: Vec<u64> = episodes.iter().map(|&k| k as u64).collect();
+        let args = move |py: Python<'_>| {
+            let episodes = PyArray1::from_vec(py, episodes);
+            Ok((text, streams.seed, streams.iteration, episodes).into_pyobject(py)?.unbind())
+        };
+        self.ask::<u32>("counts", args, policy.layout().len)
+    }
+}
+
+/// The values of episodes `0..episodes` of `(seed, purpose, iteration)` of each controller of
+/// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), controller by
+/// controller: a shard of a controller search's iteration or selection, as a worker runs it.
+#[pyfunction]
+#[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn controller_values<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
+    controllers: &str,
+    seed: &Bound<'py, PyAny>,
+    purpose: &str,
+    iteration: &Bound<'py, PyAny>,
+    episodes: &Bound<'py, PyAny>,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let streams = Streams {
+        seed: self::seed("seed", seed)?,
+        purpose: Purpose::of_episodes(purpose).or_raise()?,
+        iteration: self::seed("iteration", iteration)?,
+    };
+    let episodes = count("episodes", episodes)?;
+    ceworld::evaluate::check_episodes(episodes).or_raise()?;
+    let controllers: Vec<Controller> = serde_json::from_str(controllers)
+        .map_err(|e| raise(Error::invalid("controllers", format!("{e} (expected a JSON list of controllers)"))))?;
+    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
+    let values = WorldArg::of(world)?.run(py, |w| {
+        let shape = w.shape();
+        controllers.iter().try_for_each(|c| c.check(shape.observations, shape.decisions))?;
+        let mut values = vec![0.0; controllers.len() * episodes];
+        pool.install(|| w.run_controllers(&controllers, streams, episodes, &mut values)).map(|()| values)
+    })?;
+    Ok(PyArray1::from_vec(py, values))
+}
