@@ -53,12 +53,6 @@ def sampled_world(
     """Where the episodes of ``local`` (``core_world(world, **options)``) are sampled: ``local``
     itself for the local backend, ``world`` sampled on Ray (a ``_core.RemoteWorld``) for
     ``backend="ray"`` or a :class:`RayBackend`."""
-    if isinstance(backend, RayBackend):
-        if workers is not None or address is not None:
-            raise _core.InvalidArgumentError(
-                "invalid workers/address: given with a RayBackend (expected them in RayBackend(...))"
-            )
-        return _core.RemoteWorld(backend.bind(world, options), local)
     if backend == "local":
         for name, value in (("workers", workers), ("address", address)):
             if value is not None:
@@ -67,8 +61,16 @@ def sampled_world(
                 )
         return local
     if backend == "ray":
-        return _core.RemoteWorld(RayBackend(workers=workers, address=address).bind(world, options), local)
-    raise _core.InvalidArgumentError(f"invalid backend: {backend!r} (expected one of {list(BACKENDS)} or a RayBackend)")
+        backend = RayBackend(workers=workers, address=address)
+    elif not isinstance(backend, RayBackend):
+        raise _core.InvalidArgumentError(
+            f"invalid backend: {backend!r} (expected one of {list(BACKENDS)} or a RayBackend)"
+        )
+    elif workers is not None or address is not None:
+        raise _core.InvalidArgumentError(
+            "invalid workers/address: given with a RayBackend (expected them in RayBackend(...))"
+        )
+    return _core.RemoteWorld(backend.bind(world, options), local)
 
 
 class RayBackend:
@@ -133,7 +135,8 @@ class Sampler:
 
     def _submit(self, kind: str, policy: str, shards: Sequence[tuple[Any, ...]], combine: Combine) -> Pending:
         ray = self.backend.ray()
-        text = ray.put(policy)
+        # Put once, read by every shard (controllers travel in their shards instead).
+        text = ray.put(policy) if policy else policy
         threads = self.backend.threads
         refs = [self._task.remote(self._key, self._world, kind, text, threads, *shard) for shard in shards]
         return Pending(ray, refs, combine)

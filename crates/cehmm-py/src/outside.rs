@@ -111,10 +111,9 @@ pub struct PyBatch {
 impl PyBatch {
     /// Keeps `error` (raised by the world's code) and reports it to the engine.
     fn keep(&mut self, py: Python<'_>, error: PyErr) -> Error {
-        let message =
-            format!("raised {}", error.value(py).repr().map_or_else(|_| "an exception".into(), |r| r.to_string()));
+        let reported = raised(py, &error);
         self.raised = Some(error);
-        Error::World(message)
+        reported
     }
 
     /// `value` as `n` int64 numbers: ints (not bools, floats or strings), as one episode's
@@ -412,13 +411,29 @@ impl<'py> WorldArg<'py> {
             WorldArg::Remote(w) => {
                 let interrupt = signals.as_ref().map(|s| s.interrupt().clone()).unwrap_or_default();
                 let remote = w.episodes(py, interrupt);
-                let result = match signals {
-                    None => py.detach(|| ceworld::catch_panics(|| f(&remote))),
-                    Some(signals) => signals.watch(py, || ceworld::catch_panics(|| f(&remote)))?,
-                };
+                let result = detached_or_watched(py, signals, || f(&remote))?;
                 surface(py, result, remote.into_raised())
             }
         }
+    }
+}
+
+/// What the engine is told of `error`, an exception the world's code (or a backend) raised and
+/// that is kept to be raised again as itself.
+pub fn raised(py: Python<'_>, error: &PyErr) -> Error {
+    Error::World(format!("raised {}", error.value(py).repr().map_or_else(|_| "an exception".into(), |r| r.to_string())))
+}
+
+/// Runs `f` detached from the interpreter, or on the engine's thread while `signals` are
+/// watched; a panic in it caught.
+fn detached_or_watched<T: Send>(
+    py: Python<'_>,
+    signals: Option<&mut Signals>,
+    f: impl FnOnce() -> ceworld::Result<T> + Send,
+) -> PyResult<ceworld::Result<T>> {
+    match signals {
+        None => Ok(py.detach(|| ceworld::catch_panics(f))),
+        Some(signals) => signals.watch(py, || ceworld::catch_panics(f)),
     }
 }
 
@@ -442,13 +457,9 @@ pub fn run_outside<T: Send>(
     f: impl FnOnce(&Lockstep<PyBatch>) -> ceworld::Result<T> + Send,
 ) -> PyResult<T> {
     let mut lockstep = Lockstep::new(world.batch_world()).map_err(raise)?;
-    let result = match signals {
-        None => py.detach(|| ceworld::catch_panics(|| f(&lockstep))),
-        Some(signals) => {
-            lockstep = lockstep.interruptible(signals.interrupt().clone());
-            let lockstep = &lockstep;
-            signals.watch(py, || ceworld::catch_panics(|| f(lockstep)))?
-        }
-    };
+    if let Some(signals) = &signals {
+        lockstep = lockstep.interruptible(signals.interrupt().clone());
+    }
+    let result = detached_or_watched(py, signals, || f(&lockstep))?;
     surface(py, result, lockstep.into_inner().raised)
 }

@@ -89,11 +89,9 @@ impl Remote {
 
     /// Keeps `error` and reports it to the engine.
     fn keep(&self, py: Python<'_>, error: PyErr) -> Error {
-        let message =
-            format!("raised {}", error.value(py).repr().map_or_else(|_| "an exception".into(), |r| r.to_string()));
-        let mut raised = self.raised.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        raised.get_or_insert(error);
-        Error::World(message)
+        let reported = crate::outside::raised(py, &error);
+        self.raised.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_or_insert(error);
+        reported
     }
 
     /// The backend's answer to `method(args)`: `len` numbers, waited for in slices of [`WAIT`]
