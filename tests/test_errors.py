@@ -262,3 +262,10 @@ def test_a_model_too_large_for_the_process_limits_is_refused_not_an_abort(tmp_pa
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, preexec_fn=limit, timeout=120)
     assert out.returncode == 3, out.stderr
     assert "the tables T and O" in out.stdout and "needs" in out.stdout
+
+
+def test_backend_ray_without_ray_says_how_to_install_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    # `import ray` fails as it does where Ray is not installed.
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(ImportError, match=r"pip install 'cehmm\[ray\]'"):
+        cehmm.optimize(Corridor(), backend="ray", **FAST)

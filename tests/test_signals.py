@@ -15,7 +15,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from worlds import Corridor
+from worlds import Slow
 
 import cehmm
 
@@ -142,14 +142,6 @@ def test_sigterm_saves_the_checkpoint_and_ends_the_process(case3: cehmm.TargetTr
     settings = dict(levels=[16, 16], samples=2000, rho=0.1, max_iterations=60, eval_episodes=200, progress=False)
     resumed = cehmm.optimize(case3, checkpoint=checkpoint, resume=True, **settings)
     assert _tables(resumed) == _tables(cehmm.optimize(case3, **settings))
-
-
-class Slow(Corridor):
-    """The corridor at 1 ms a step (10 steps an episode)."""
-
-    def step(self, decision: int) -> tuple[int, float, bool]:
-        time.sleep(0.001)
-        return super().step(decision)
 
 
 # About 0.25 s an iteration; the final evaluation alone would take 100 s.

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import time
 from typing import Any
 
 import gymnasium as gym
@@ -25,6 +28,46 @@ class Corridor:
             move = -move
         self.cell = min(5, max(0, self.cell + move))
         return self.cell, float(self.cell == 5), False
+
+
+class Slow(Corridor):
+    """The corridor at 1 ms a step (10 steps an episode)."""
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        time.sleep(0.001)
+        return super().step(decision)
+
+
+class KillsItsWorker(Corridor):
+    """The corridor, but the first episode begun in a process other than the one that made it
+    (a worker) kills that process, once: when no file `marker` exists (it makes it)."""
+
+    def __init__(self, marker: str) -> None:
+        self.marker, self.maker = marker, os.getpid()
+
+    def reset(self, seed: int) -> int:
+        if os.getpid() != self.maker:
+            try:
+                open(self.marker, "x").close()
+            except FileExistsError:
+                pass  # killed already (or another worker is being killed)
+            else:
+                os.kill(os.getpid(), signal.SIGKILL)
+        return super().reset(seed)
+
+
+class Raises(Corridor):
+    """The corridor, its third step raising `ValueError`."""
+
+    def step(self, decision: int) -> tuple[int, float, bool]:
+        if self.steps == 2:
+            raise ValueError("the corridor's third step")
+        self.steps += 1
+        return super().step(decision)
+
+    def reset(self, seed: int) -> int:
+        self.steps = 0
+        return super().reset(seed)
 
 
 class Shows(gym.Env):
