@@ -82,12 +82,32 @@ def test_episode_ce_on_a_python_world_on_ray_is_the_local_one(cluster):
         _same_run(remote, local)
 
 
+def test_a_scored_python_world_travels_as_what_it_was_made_from(cluster):
+    world = cehmm.PythonWorld(Corridor(), score=worlds.reached, horizon=6, name="short corridor")
+    local = cehmm.optimize(world, **CORRIDOR)
+    remote = cehmm.optimize(world, backend="ray", workers=2, **CORRIDOR)
+    assert remote.policy.to_json() == local.policy.to_json()
+    _same_run(remote, local)
+
+
 def test_the_controller_search_on_a_python_world_on_ray_is_the_local_one(cluster):
     settings = dict(nodes=2, samples=16, episodes=4, select_episodes=8, eval_episodes=50, max_iterations=3, seed=2)
     local = cehmm.optimize_controller(Corridor(), progress=False, **settings)
     remote = cehmm.optimize_controller(Corridor(), progress=False, backend=cehmm.RayBackend(workers=3), **settings)
     assert remote.policy.to_json() == local.policy.to_json()
     assert remote.value == local.value and list(remote.history["mean"]) == list(local.history["mean"])
+
+
+def test_the_controller_search_on_exact_values_on_ray_is_the_local_one(cluster):
+    tiger = cehmm.PomdpWorld(Path(__file__).parents[1] / "data" / "pomdp" / "tiger.95.POMDP")
+    settings = dict(nodes=3, samples=200, max_iterations=4, seed=1, progress=False)
+    local = cehmm.optimize_controller(tiger, **settings)
+    remote = cehmm.optimize_controller(tiger, backend="ray", workers=3, **settings)
+    assert remote.kind == local.kind == "exact"
+    assert remote.policy.to_json() == local.policy.to_json()
+    assert remote.value == local.value and list(remote.history["mean"]) == list(local.history["mean"])
+    with pytest.raises(cehmm.InvalidArgumentError, match="not tabular"):
+        cehmm.optimize_controller(Corridor(), value="exact", backend="ray", **settings)
 
 
 def test_a_worker_killed_mid_run_changes_nothing(cluster, tmp_path: Path):

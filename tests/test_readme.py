@@ -76,6 +76,7 @@ NOT_RUN: dict[str, str] = {
     "python3 -m pip install -e '.[test]' && cargo test && python3 -m pytest": "the test suite itself: .ci/run runs it",
     "python3 -m pip install '.[plot]'": "an install (matplotlib: in '.[test]', which .ci/run installs)",
     "python3 -m pip install '.[gym]'": "an install (gymnasium: in '.[test]', which .ci/run installs)",
+    "python3 -m pip install '.[ray]'": "an install (ray: in '.[test]', which .ci/run installs)",
     "python3 -m pip install sb3-contrib": "an install of a heavy rival, kept out of CI (docs/memory-benchmark.md)",
     "cargo install cargo-mutants && cargo mutants": "70 minutes; .ci/run runs cargo mutants on two model files",
 }

@@ -4,6 +4,9 @@ episodes gives their very rewards, and the elite's counts come from the episodes
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 from worlds import Corridor
@@ -65,3 +68,23 @@ def test_a_shard_names_a_bad_purpose() -> None:
         policy.shard_rewards(world._core, 0, "train", 0, 0, 10)
     with pytest.raises(cehmm.InvalidArgumentError, match="episodes"):
         policy.shard_rewards(world._core, 0, "evaluate", 0, 0, 0)
+
+
+def test_exact_values_of_a_shard_of_controllers() -> None:
+    tiger = cehmm.PomdpWorld(Path(__file__).parents[1] / "data" / "pomdp" / "tiger.95.POMDP")
+    # Listening forever (decision 0) is worth -1/(1 - γ); opening the left door first (decision
+    # 1: -100 or +10, even odds), then listening forever, -45 + γ of that. A controller starts
+    # at the node its entry `next[Y]` (of node 0) names.
+    listen = {"act": [0], "next": [0, 0, 0]}
+    opens = {"act": [1, 0], "next": [1, 1, 0, 1, 1, 1]}
+    values = cehmm._core.controller_exact_values(tiger._core, json.dumps([listen, opens, listen]), 1e-9)
+    assert values[0] == values[2] and values[0] == pytest.approx(-1 / (1 - 0.95), abs=1e-6)
+    assert values[1] == pytest.approx((0.5 * -100 + 0.5 * 10) + 0.95 * values[0], abs=1e-6)
+    with pytest.raises(cehmm.InvalidArgumentError, match="world: not tabular"):
+        cehmm._core.controller_exact_values(cehmm.TargetTracking(case=1)._core, "[]", 1e-6)
+    with pytest.raises(cehmm.InvalidArgumentError, match="tolerance: 0"):
+        cehmm._core.controller_exact_values(tiger._core, "[]", 0.0)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"controller: decision 5 \(expected below 3\)"):
+        cehmm._core.controller_exact_values(tiger._core, json.dumps([{"act": [5], "next": [0, 0, 0]}]), 1e-6)
+    with pytest.raises(cehmm.InvalidArgumentError, match="controllers: .*expected a JSON list of controllers"):
+        cehmm._core.controller_exact_values(tiger._core, "{}", 1e-6)

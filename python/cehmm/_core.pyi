@@ -23,6 +23,7 @@ __all__ = [
     "WorldError",
     "OutsideWorld",
     "RemoteWorld",
+    "controller_exact_values",
     "controller_values",
     "ExactValue",
     "Policy",
@@ -335,6 +336,12 @@ def controller_values(
     purpose: str,
     iteration: int,
     episodes: int,
+    threads: int | None = None,
+) -> npt.NDArray[np.float64]: ...
+def controller_exact_values(
+    world: World,
+    controllers: str,
+    tolerance: float,
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
 def cli(args: Sequence[str | os.PathLike[str]]) -> int: ...

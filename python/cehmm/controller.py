@@ -196,7 +196,7 @@ def optimize_controller(
         discount: for a world written in Python, the discount of the default score.
         horizon: for a world written in Python, the most steps of an episode (default: its own).
         backend: ``"local"``, ``"ray"`` (every iteration's controllers valued in shards on a Ray
-            cluster, the same result bit for bit; sampled values only) or a
+            cluster, exact or sampled, the same result bit for bit) or a
             :class:`~cehmm.RayBackend` (see :func:`optimize`).
         workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
         address: with ``backend="ray"``: the cluster to join.

@@ -90,6 +90,7 @@ class PythonWorld:
     ) -> None:
         #: What was given (an environment, its id, a factory...), before any adapting.
         self.world = world
+        self._options = dict(horizon=horizon, score=score, discount=discount, name=name)
         if isinstance(world, str) or _is_factory(world):
             from .gym_adapt import make_env
 
@@ -152,11 +153,19 @@ class PythonWorld:
         """Episodes stepped at once (1 for the episode protocol)."""
         return self._core.batch
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # Pickled as what it was made from (to reach the workers of a backend, say).
+        return (_python_world, (self.world, self._options))
+
     def __repr__(self) -> str:
         d = self.description
         label = d.get("id", d.get("class", "?"))
         sizes = f"observations={d['observations']}, decisions={d['decisions']}, horizon={d['horizon']}"
         return f"PythonWorld({label}, {sizes})"
+
+
+def _python_world(world: Any, options: dict[str, Any]) -> PythonWorld:
+    return PythonWorld(world, **options)
 
 
 def _attribute(world: Any, name: str, description: dict[str, Any]) -> Any:

@@ -160,6 +160,12 @@ class Sampler:
         ]
         return self._submit("controllers", "", shards, np.concatenate)
 
+    def exact_values(self, controllers: str, tolerance: float) -> Pending:
+        """Exact values of each controller (a tabular world), to ``tolerance``."""
+        laws = json.loads(controllers)
+        shards = [(json.dumps(laws[a:b]), tolerance) for a, b in _cuts(len(laws), self.backend.workers)]
+        return self._submit("exact", "", shards, np.concatenate)
+
 
 Combine = Callable[[list[Any]], Any]
 
@@ -207,7 +213,7 @@ _WORLDS: dict[str, Any] = {}
 
 
 def _shard(key: str, world: list[Any], kind: str, policy: str, threads: int, *args: Any) -> Any:
-    """One task on a worker: a shard of rewards, counts or controller values."""
+    """One task on a worker: a shard of rewards, counts, or controllers' sampled or exact values."""
     engine = _WORLDS.get(key)
     if engine is None:
         import ray
@@ -219,6 +225,9 @@ def _shard(key: str, world: list[Any], kind: str, policy: str, threads: int, *ar
     if kind == "controllers":
         controllers, seed, purpose, iteration, episodes = args
         return _core.controller_values(engine, controllers, seed, purpose, iteration, episodes, threads)
+    if kind == "exact":
+        controllers, tolerance = args
+        return _core.controller_exact_values(engine, controllers, tolerance, threads)
     table = _core.Policy.from_json(policy)
     if kind == "rewards":
         seed, purpose, iteration, first, n = args

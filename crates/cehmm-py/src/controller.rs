@@ -115,6 +115,8 @@ pub fn optimize_controller(
     // The defaults of the kind of value the search will use.
     let resolved = match &world {
         WorldArg::Engine(w) => Valued::of(&w.world, kind).or_raise()?.kind(),
+        // A tabular world sampled elsewhere is valued as it would be here.
+        WorldArg::Remote(r) if r.tabular => kind.unwrap_or(ValueKind::Exact),
         WorldArg::Outside(_) | WorldArg::Remote(_) => ValueKind::Sampled,
     };
     let mut config = ControllerConfig::defaults_for(resolved);
@@ -133,15 +135,21 @@ pub fn optimize_controller(
                         let w = Interruptible::new(w, interrupt.clone());
                         run(Valued::Sampled(&w), &config, checkpointing, progress, &interrupt)
                     }
-                    exact @ Valued::Exact(_) => run(exact, &config, checkpointing, progress, &interrupt),
+                    exact => run(exact, &config, checkpointing, progress, &interrupt),
                 })
             };
             signals.watch(py, search)?.or_raise()
         }
         WorldArg::Outside(_) | WorldArg::Remote(_) => {
+            if resolved == ValueKind::Exact {
+                return world.run_watched(py, &mut signals, |w| {
+                    let remote = w.remote().expect("a world sampled elsewhere");
+                    run(Valued::ExactElsewhere(w, remote), &config, checkpointing, progress, &interrupt)
+                });
+            }
             if kind == Some(ValueKind::Exact) {
                 let what = if matches!(world, WorldArg::Remote(_)) {
-                    "a world sampled elsewhere (exact values are computed here: cehmm.PomdpWorld without a backend)"
+                    "a world sampled elsewhere that is not tabular (exact values need a cehmm.PomdpWorld; use \"sampled\")"
                 } else {
                     "a world written in Python (exact values need a cehmm.PomdpWorld; use \"sampled\")"
                 };

@@ -52,7 +52,7 @@ mod _core {
     #[pymodule_export]
     use super::qlearn::{PyQLearner, evaluate_policy_windows};
     #[pymodule_export]
-    use super::remote::{PyRemoteWorld, controller_values};
+    use super::remote::{PyRemoteWorld, controller_exact_values, controller_values};
     #[pymodule_export]
     use super::results::{PyEvaluation, PyExactValue, PyRollout, PyWindowEvaluation};
     #[pymodule_export]

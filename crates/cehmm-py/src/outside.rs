@@ -367,6 +367,17 @@ impl<'py> WorldArg<'py> {
         })
     }
 
+    /// The tabular world (a `.pomdp` file) it is, if it is one.
+    pub fn tabular(&self) -> Option<&ceworld::world::pomdp::PomdpWorld> {
+        match self {
+            WorldArg::Engine(w) => match &w.world {
+                ceworld::world::registry::AnyWorld::Pomdp(tabular) => Some(tabular),
+                ceworld::world::registry::AnyWorld::TargetTracking(_) => None,
+            },
+            WorldArg::Outside(_) | WorldArg::Remote(_) => None,
+        }
+    }
+
     /// Runs `f` on the world's episodes, detached from the interpreter. An exception raised by a
     /// world's Python code comes back as itself, with a note naming the episode and the step.
     pub fn run<T: Send>(

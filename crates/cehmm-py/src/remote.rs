@@ -1,14 +1,16 @@
 //! Episodes sampled elsewhere (model §9): `cehmm._core.RemoteWorld`, a world whose episodes a
 //! backend written in Python (`cehmm.ray_backend`) samples on other processes or machines, and
-//! the worker's side of it, `controller_values`. The driver's optimisers run unchanged on a
-//! [`Remote`]: only tables, controllers, episode numbers, rewards, values and counts cross.
+//! the worker's side of it, `controller_values` and `controller_exact_values`. The driver's
+//! optimisers run unchanged on a [`Remote`]: only tables, controllers, episode numbers,
+//! rewards, values and counts cross.
 //!
 //! The backend has `rewards(policy, seed, purpose, iteration, first, n)`,
-//! `counts(policy, seed, iteration, episodes)` and
-//! `controller_values(controllers, seed, purpose, iteration, episodes)` (a policy and the
-//! controllers as JSON text), each returning at once a pending answer with `wait(seconds) ->
-//! bool`, `result() -> numpy array` and `cancel()`: the engine waits in short slices, so that
-//! Ctrl-C cancels what is still running.
+//! `counts(policy, seed, iteration, episodes)`,
+//! `controller_values(controllers, seed, purpose, iteration, episodes)` and
+//! `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
+//! returning at once a pending answer with `wait(seconds) -> bool`, `result() -> numpy array`
+//! and `cancel()`: the engine waits in short slices, so that Ctrl-C cancels what is still
+//! running.
 
 use std::sync::Mutex;
 
@@ -17,6 +19,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use serde_json::{Value, json};
 
+use ceworld::ce::controller::ControllerValue;
 use ceworld::episodes::{Batch, Episodes, Shape, Streams};
 use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
@@ -35,6 +38,8 @@ pub struct PyRemoteWorld {
     backend: Py<PyAny>,
     shape: Shape,
     description: Value,
+    /// Whether the world is tabular (a `.pomdp` file): its controllers have exact values.
+    pub tabular: bool,
 }
 
 #[pymethods]
@@ -42,8 +47,10 @@ impl PyRemoteWorld {
     /// `world` (an engine world or a world written in Python) sampled by `backend`.
     #[new]
     fn new(py: Python<'_>, backend: Py<PyAny>, world: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let (shape, description) = WorldArg::of(world)?.run(py, |w| Ok((w.shape(), w.description())))?;
-        Ok(PyRemoteWorld { backend, shape, description })
+        let world = WorldArg::of(world)?;
+        let tabular = world.tabular().is_some();
+        let (shape, description) = world.run(py, |w| Ok((w.shape(), w.description())))?;
+        Ok(PyRemoteWorld { backend, shape, description, tabular })
     }
 
     /// The backend that samples the episodes.
@@ -207,6 +214,21 @@ impl ceworld::episodes::Remote for Remote {
         };
         self.ask::<u32>("counts", args, policy.layout().len)
     }
+
+    fn exact_values(&self, controllers: &[Controller], tolerance: f64) -> ceworld::Result<Vec<f64>> {
+        let text = serde_json::to_string(controllers).expect("controllers serialise");
+        let args = |py: Python<'_>| Ok((text, tolerance).into_pyobject(py)?.unbind());
+        self.ask::<f64>("exact_values", args, controllers.len())
+    }
+}
+
+/// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), checked against
+/// `shape`.
+fn read_controllers(text: &str, shape: Shape) -> PyResult<Vec<Controller>> {
+    let controllers: Vec<Controller> = serde_json::from_str(text)
+        .map_err(|e| raise(Error::invalid("controllers", format!("{e} (expected a JSON list of controllers)"))))?;
+    controllers.iter().try_for_each(|c| c.check(shape.observations, shape.decisions)).or_raise()?;
+    Ok(controllers)
 }
 
 /// The values of episodes `0..episodes` of `(seed, purpose, iteration)` of each controller of
@@ -232,14 +254,37 @@ pub fn controller_values<'py>(
     };
     let episodes = count("episodes", episodes)?;
     ceworld::evaluate::check_episodes(episodes).or_raise()?;
-    let controllers: Vec<Controller> = serde_json::from_str(controllers)
-        .map_err(|e| raise(Error::invalid("controllers", format!("{e} (expected a JSON list of controllers)"))))?;
     let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
-    let values = WorldArg::of(world)?.run(py, |w| {
-        let shape = w.shape();
-        controllers.iter().try_for_each(|c| c.check(shape.observations, shape.decisions))?;
+    let world = WorldArg::of(world)?;
+    let controllers = read_controllers(controllers, world.run(py, |w| Ok(w.shape()))?)?;
+    let values = world.run(py, |w| {
         let mut values = vec![0.0; controllers.len() * episodes];
         pool.install(|| w.run_controllers(&controllers, streams, episodes, &mut values)).map(|()| values)
     })?;
+    Ok(PyArray1::from_vec(py, values))
+}
+
+/// The exact values of `controllers` (JSON text, as for [`controller_values`]) on a tabular
+/// world, to `tolerance` (model §8): a shard of an iteration of a search on exact values, as a
+/// worker runs it.
+#[pyfunction]
+#[pyo3(signature = (world, controllers, tolerance, threads = None))]
+pub fn controller_exact_values<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
+    controllers: &str,
+    tolerance: &Bound<'py, PyAny>,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let tolerance = crate::convert::real("tolerance", tolerance)?;
+    ceworld::ce::controller::ControllerConfig { tolerance, ..Default::default() }.validate().or_raise()?;
+    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
+    let world = WorldArg::of(world)?;
+    let tabular = world
+        .tabular()
+        .ok_or_else(|| raise(Error::invalid("world", "not tabular (exact values need a cehmm.PomdpWorld)")))?;
+    let controllers = read_controllers(controllers, ceworld::episodes::Episodes::shape(tabular))?;
+    let exact = ControllerValue::new(tabular, tolerance);
+    let values = py.detach(|| pool.install(|| exact.values(&controllers)));
     Ok(PyArray1::from_vec(py, values))
 }

@@ -109,6 +109,14 @@ pub trait Remote: Sync {
     /// `streams` under `policy`: those that their records give, bit for bit
     /// ([`crate::ce::rerun::rerun_counts`] is how a worker takes them).
     fn counts(&self, policy: &Hhmm, streams: Streams, episodes: &[usize]) -> Result<Vec<u32>>;
+
+    /// The exact values of `controllers` (model §8, to `tolerance`), as
+    /// [`crate::ce::controller::ControllerValue`] computes them where the world is: a tabular
+    /// world's; by default refused.
+    fn exact_values(&self, controllers: &[Controller], tolerance: f64) -> Result<Vec<f64>> {
+        let _ = (controllers, tolerance);
+        Err(crate::Error::invalid("value", "\"exact\" for episodes sampled elsewhere of a world that is not tabular"))
+    }
 }
 
 /// Episodes a world run by the engine runs in one slice of a long evaluation: the interrupt

@@ -22,7 +22,7 @@ use serde_json::json;
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::StopReason;
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
-use crate::episodes::{Episodes, Streams};
+use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::evaluate::{Evaluation, closing_rewards};
@@ -171,6 +171,7 @@ pub fn optimize_controller_with(
     let values = match world {
         Valued::Exact(w) => Values::Exact(ControllerValue::new(w, config.tolerance)),
         Valued::Sampled(w) => Values::Sampled(w),
+        Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
     let search = Search { config, values, y1, n_actions, pool };
     let (mut interrupted, mut stopped) = (None, false);
@@ -242,6 +243,7 @@ pub fn optimize_controller_with(
 enum Values<'a> {
     Exact(ControllerValue<'a>),
     Sampled(&'a dyn Episodes),
+    ExactElsewhere(&'a dyn Episodes, &'a dyn Remote),
 }
 
 /// What every run of a search shares.
@@ -257,7 +259,7 @@ impl Search<'_> {
     /// What may stop the search's episodes from outside.
     fn interrupt(&self) -> Option<&Interrupt> {
         match &self.values {
-            Values::Sampled(world) => world.interrupt(),
+            Values::Sampled(world) | Values::ExactElsewhere(world, _) => world.interrupt(),
             Values::Exact(_) => None,
         }
     }
@@ -288,6 +290,12 @@ impl Search<'_> {
                     },
                 )
                 .collect()),
+            Values::ExactElsewhere(_, remote) => {
+                // One batch: the time limit is checked between iterations only.
+                let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
+                let values = remote.exact_values(&controllers, self.config.tolerance)?;
+                Ok(values.into_iter().zip(controllers).map(Some).collect())
+            }
             Values::Sampled(world) => {
                 let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
                 let k = self.config.episodes;
@@ -315,7 +323,7 @@ impl Search<'_> {
     /// controller on exact values; on sampled ones the best on the selection episodes of its best
     /// `candidates` distinct controllers (`order`: best first).
     fn candidate(&self, drawn: &[(f64, Controller)], order: &[usize]) -> Result<(f64, usize)> {
-        if let Values::Exact(_) = self.values {
+        if let Values::Exact(_) | Values::ExactElsewhere(..) = self.values {
             return Ok((drawn[order[0]].0, order[0]));
         }
         let mut few: Vec<usize> = Vec::new();

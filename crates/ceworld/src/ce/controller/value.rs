@@ -1,7 +1,7 @@
 //! How a controller search values its controllers (model §8): exactly on a tabular world, or
 //! from sampled episodes of any world.
 
-use crate::episodes::Episodes;
+use crate::episodes::{Episodes, Remote};
 use crate::error::{Error, Result};
 use crate::exact::MAX_STEPS;
 use crate::policy::controller::Controller;
@@ -18,6 +18,9 @@ pub enum Valued<'a> {
     Exact(&'a PomdpWorld),
     /// Values estimated from episodes of any world.
     Sampled(&'a dyn Episodes),
+    /// Exact values of a tabular world sampled elsewhere, computed there
+    /// ([`crate::episodes::Remote::exact_values`]; model §9).
+    ExactElsewhere(&'a dyn Episodes, &'a dyn Remote),
 }
 
 impl Valued<'_> {
@@ -41,7 +44,7 @@ impl Valued<'_> {
     /// Which kind.
     pub fn kind(&self) -> ValueKind {
         match self {
-            Valued::Exact(_) => ValueKind::Exact,
+            Valued::Exact(_) | Valued::ExactElsewhere(..) => ValueKind::Exact,
             Valued::Sampled(_) => ValueKind::Sampled,
         }
     }
@@ -50,7 +53,7 @@ impl Valued<'_> {
     pub fn episodes(&self) -> &dyn Episodes {
         match *self {
             Valued::Exact(world) => world,
-            Valued::Sampled(world) => world,
+            Valued::Sampled(world) | Valued::ExactElsewhere(world, _) => world,
         }
     }
 }
@@ -69,6 +72,12 @@ impl<'a> ControllerValue<'a> {
     pub fn new(world: &'a PomdpWorld, tolerance: f64) -> ControllerValue<'a> {
         let horizon = (world.tables().gamma >= 1.0).then(|| world.horizon());
         ControllerValue { world, horizon, tolerance }
+    }
+
+    /// The values of `controllers`, in parallel (on the current thread pool).
+    pub fn values(&self, controllers: &[Controller]) -> Vec<f64> {
+        use rayon::prelude::*;
+        controllers.par_iter().map_init(|| (Vec::new(), Vec::new()), |(v, w), c| self.value(c, v, w)).collect()
     }
 
     /// The value of `c` from the start law; `v` and `w` are scratch space.
