@@ -76,7 +76,8 @@ def main() -> None:
     parser.add_argument("--cpus", type=int, default=2)
     args = parser.parse_args()
     start = time.perf_counter()
-    ray.init(num_cpus=args.cpus, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    loopback = dict(include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    ray.init(address="local", num_cpus=args.cpus, **loopback)
     print(f"local Ray started in {time.perf_counter() - start:.1f} s ({args.cpus} CPUs, Ray {ray.__version__})")
     cases = [
         ("target tracking (engine)", cehmm.TargetTracking(case=3), 1000),

@@ -33,7 +33,7 @@ parser.add_argument("--out", default="ray_policy.json")
 args = parser.parse_args()
 
 if args.address is None:
-    ray.init(include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
+    ray.init(address="local", include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False)
 else:
     ray.init(address=args.address)
 print(f"Ray {ray.__version__}: {int(ray.cluster_resources().get('CPU', 0))} CPUs")

@@ -7,7 +7,11 @@ Runs where Ray is installed (``pip install 'cehmm[ray]'``; the test extra brings
 from __future__ import annotations
 
 import json
+import os
 import signal
+import socket
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -31,6 +35,7 @@ def cluster():
     # The test worlds reach the workers as a module of the job's runtime environment (README,
     # "Running on a cluster").
     context = ray.init(
+        address="local",  # a new cluster, even where one runs on this machine
         num_cpus=CPUS,
         include_dashboard=False,
         _node_ip_address="127.0.0.1",
@@ -165,3 +170,45 @@ def test_backend_errors_name_the_value():
         cehmm.optimize(world, workers=2, max_iterations=1, progress=False)
     with pytest.raises(cehmm.InvalidArgumentError, match="workers: 0"):
         cehmm.RayBackend(workers=0)
+
+
+JOIN = """
+import sys
+import cehmm
+result = cehmm.optimize(cehmm.TargetTracking(case=1), backend="ray", address=sys.argv[1], progress=False, **{})
+print(result.policy.to_json())
+"""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_job_on_an_existing_cluster_is_the_local_one():
+    # A cluster started apart (`ray start --head`, as on a cluster's head node), joined by a
+    # driver of its own with address=.
+    port = _free_port()
+    head = subprocess.Popen(
+        [sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block", f"--port={port}",
+         "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats",
+         f"--ray-client-server-port={_free_port()}"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 60
+        while socket.socket().connect_ex(("127.0.0.1", port)) != 0:  # the head's GCS, once up
+            assert time.monotonic() < deadline and head.poll() is None, "the head did not start"
+            time.sleep(0.2)
+        settings = dict(levels=[3, 2], samples=200, max_iterations=3, eval_episodes=200, seed=4)
+        script = JOIN.replace("**{}", f"**{settings!r}")
+        joined = subprocess.run(
+            [sys.executable, "-c", script, f"127.0.0.1:{port}"], capture_output=True, text=True, timeout=120
+        )
+        assert joined.returncode == 0, joined.stderr[-2000:]
+        local = cehmm.optimize(cehmm.TargetTracking(case=1), progress=False, **settings)
+        assert joined.stdout.strip() == local.policy.to_json()
+    finally:
+        os.killpg(head.pid, signal.SIGTERM)
+        head.wait(timeout=60)

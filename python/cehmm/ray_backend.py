@@ -109,6 +109,7 @@ class RayBackend:
         if not ray.is_initialized():
             if self.address is None:
                 ray.init(
+                    address="local",
                     num_cpus=self._workers * self.threads if self._workers else None,
                     include_dashboard=False,
                     _node_ip_address="127.0.0.1",
