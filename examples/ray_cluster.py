@@ -1,9 +1,9 @@
 """Episode CE of a world written in Python, its episodes sampled on a Ray cluster.
 
-Run: ``pip install -e '.[ray]' && python examples/ray_cluster.py`` (a local Ray of this
-machine's CPUs, on loopback, without a dashboard; about half a minute on 2 cores), or on a node
-of a running cluster ``python examples/ray_cluster.py --address auto`` (every node has cehmm
-installed: the engine runs there).
+Run: ``pip install -e '.[ray]' && python examples/ray_cluster.py`` (a new local Ray of this
+machine's CPUs, without a dashboard, on loopback with Ray 2.40: README; about fifteen seconds on
+2 cores), or on a node of a running cluster ``python examples/ray_cluster.py --address auto``
+(every node has cehmm installed: the engine runs there).
 
 The world is the paper's target tracking written in Python (``cehmm.pyworlds.TrackingEpisodes``,
 a step of Python code per episode-step): a module every node has, since it comes with cehmm. A

@@ -155,7 +155,8 @@ def optimize_controller(
         max_iterations: stop a run after this many iterations.
         target: stop once the best value so far reaches this.
         time_limit: stop after this many seconds (all runs together), checked before each
-            controller's evaluation on exact values, before each iteration on sampled ones; an
+            controller's evaluation on exact values here, before each iteration on sampled ones
+            and on exact values computed by a backend; an
             iteration it cuts does not refit the laws.
         tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
             counts as progress.
