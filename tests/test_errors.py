@@ -244,10 +244,11 @@ def test_every_path_that_is_not_a_regular_file_is_refused_at_once(tmp_path: Path
 
 @pytest.mark.skipif(sys.platform != "linux", reason="RLIMIT_AS as Linux has it")
 def test_a_model_too_large_for_the_process_limits_is_refused_not_an_abort(tmp_path: Path) -> None:
-    # 58 bytes, 2^28 actions: 16 GiB of tables. Under a 3 GB address-space limit the allocation
-    # used to abort the interpreter; it is refused by name before it is made.
+    # 57 bytes, 2^26 actions (tables within the entries a world allows): over 3 GiB of tables
+    # and rows. Under a 3 GB address-space limit the allocation used to abort the interpreter;
+    # it is refused by name before it is made.
     model = tmp_path / "huge.pomdp"
-    model.write_text("states: 1\nactions: 268435456\nobservations: 1\nO: * uniform\n")
+    model.write_text("states: 1\nactions: 67108864\nobservations: 1\nO: * uniform\n")
     code = (
         "import cehmm, sys\n"
         "try:\n"

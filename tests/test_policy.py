@@ -243,7 +243,7 @@ def test_saving_never_replaces_what_is_not_a_regular_file(tmp_path, case1) -> No
     policy.save(real)
     link = tmp_path / "link.json"
     link.symlink_to("real.json")
-    cehmm.Policy.uniform(case1, [3]).save(link)
+    cehmm.Policy.uniform(case1, [3]).save(link, overwrite=True)
     assert link.is_symlink() and cehmm.Policy.load(real).levels == [3]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.json", "real.json"]
 

@@ -126,9 +126,14 @@ class Policy:
             raise TypeError(f"invalid text: {text!r} (expected a str of JSON)")
         return cls(_core.Policy.from_json(text))
 
-    def save(self, path: PathLike) -> None:
-        """Writes the policy file (JSON, model §6), atomically (through a temporary file)."""
-        self._core.save(os.fspath(path))
+    def save(self, path: PathLike, *, overwrite: bool = False) -> None:
+        """Writes the policy file (JSON, model §6), atomically (through a temporary file).
+
+        Raises:
+            InvalidArgumentError: ``path`` exists and ``overwrite`` is not set (the command line's
+                ``--force``), or is a directory or a device.
+        """
+        self._core.save(os.fspath(path), overwrite=overwrite)
 
     def to_json(self) -> str:
         """The policy document (model §6) as JSON text."""

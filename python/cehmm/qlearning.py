@@ -99,10 +99,11 @@ class QLearner:
         """Reads a run saved by :meth:`save` or a ``ceworld qlearn`` table/checkpoint."""
         return cls(_core.QLearner.load(os.fspath(path)))
 
-    def save(self, path: PathLike) -> None:
+    def save(self, path: PathLike, *, overwrite: bool = False) -> None:
         """Writes the run: a JSON header (settings, counters, random stream, world state), then the
-        table as little-endian float32; through a temporary file, so never half-written."""
-        self._core.save(os.fspath(path))
+        table as little-endian float32; through a temporary file, so never half-written. An
+        existing ``path`` is replaced only when ``overwrite`` (else ``InvalidArgumentError``)."""
+        self._core.save(os.fspath(path), overwrite=overwrite)
 
     def train(
         self,

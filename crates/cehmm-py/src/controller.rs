@@ -122,7 +122,12 @@ pub fn optimize_controller(
     let mut config = ControllerConfig::defaults_for(resolved);
     apply_settings(&mut config, settings)?;
     let progress = flag("progress", progress)?;
-    let checkpointing = checkpointing(checkpoint, checkpoint_every, resume)?;
+    let checkpointing = checkpointing::<ceworld::ce::controller::checkpoint::ControllerSearch>(
+        py,
+        checkpoint,
+        checkpoint_every,
+        resume,
+    )?;
     let checkpointing = checkpointing.as_ref();
     let mut signals = Signals::default();
     let interrupt = signals.interrupt().clone();

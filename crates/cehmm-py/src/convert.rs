@@ -266,8 +266,11 @@ pub fn apply_settings<S: Settings>(config: &mut S, settings: &Bound<'_, PyDict>)
     Ok(())
 }
 
-/// Every optimiser's checkpoint arguments: where, how often (seconds), whether to resume.
-pub fn checkpointing(
+/// Every optimiser's checkpoint arguments: where, how often (seconds), whether to resume; a
+/// `RuntimeWarning` when the checkpoint to resume from (of the optimiser `K`) is of an earlier
+/// version that carries no digest (its content unverified).
+pub fn checkpointing<K: ceworld::ce::resume::Resumable>(
+    py: Python<'_>,
     checkpoint: Option<std::path::PathBuf>,
     every: Option<&Bound<'_, PyAny>>,
     resume: Option<&Bound<'_, PyAny>>,
@@ -277,5 +280,9 @@ pub fn checkpointing(
     if checkpoint.is_none() && resume {
         return Err(raise(Error::invalid("resume", "True without a checkpoint (give checkpoint=PATH)")));
     }
-    Ok(checkpoint.map(|path| ceworld::Checkpointing { path, every, resume }))
+    if let Some(path) = checkpoint.as_ref().filter(|p| resume && p.exists()) {
+        let peek = ceworld::ce::resume::Checkpoint::<K>::peek(path).map_err(raise)?;
+        crate::errors::warn(py, peek.unverified.as_deref())?;
+    }
+    Ok(checkpoint.map(|path| ceworld::Checkpointing { path, every, resume, outputs: Vec::new() }))
 }

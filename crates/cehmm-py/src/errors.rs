@@ -77,8 +77,13 @@ pub fn raise(error: Error) -> PyErr {
 /// A `RuntimeWarning` that the last checkpoint of a run could not be written (`error`): the run
 /// went on and its result is returned.
 pub fn warn_checkpoint(py: Python<'_>, error: Option<&str>) -> PyResult<()> {
-    let Some(error) = error else { return Ok(()) };
-    let message = format!("{} and its result is returned", ceworld::ce::resume::checkpoint_warning(error));
+    let message = error.map(|e| format!("{} and its result is returned", ceworld::ce::resume::checkpoint_warning(e)));
+    warn(py, message.as_deref())
+}
+
+/// A `RuntimeWarning` of `message`, if any, at the caller's line.
+pub fn warn(py: Python<'_>, message: Option<&str>) -> PyResult<()> {
+    let Some(message) = message else { return Ok(()) };
     let message = std::ffi::CString::new(message.replace('\0', " ")).expect("no NUL left");
     PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyRuntimeWarning>(), &message, 2)
 }

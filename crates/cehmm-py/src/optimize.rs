@@ -99,7 +99,7 @@ pub fn optimize(
     let mut config = CeConfig::default();
     apply_settings(&mut config, settings)?;
     let progress = flag("progress", progress)?;
-    let checkpointing = checkpointing(checkpoint, checkpoint_every, resume)?;
+    let checkpointing = checkpointing::<ceworld::ce::checkpoint::CeRun>(py, checkpoint, checkpoint_every, resume)?;
     let world = WorldArg::of(world)?;
     let initial = initial.file.policy.clone();
     let mut signals = Signals::default();

@@ -124,8 +124,12 @@ impl PyPolicy {
         Ok(PyPolicy { file: PolicyFile::parse(text).or_raise()? })
     }
 
-    /// Writes the policy file (model §6).
-    fn save(&self, path: PathBuf) -> PyResult<()> {
+    /// Writes the policy file (model §6); an existing file is replaced only when `overwrite`.
+    #[pyo3(signature = (path, *, overwrite = false))]
+    fn save(&self, path: PathBuf, overwrite: bool) -> PyResult<()> {
+        if !overwrite {
+            ceworld::files::check_new("path", &path, "give overwrite=True").or_raise()?;
+        }
         self.file.save(path).or_raise()
     }
 

@@ -142,8 +142,13 @@ impl PyQLearner {
         Ok(PyQLearner { learner: detached(py, || AnyLearner::resume(path, world, &config))? })
     }
 
-    /// Writes the run (header and table), atomically.
-    fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+    /// Writes the run (header and table), atomically; an existing file is replaced only when
+    /// `overwrite`.
+    #[pyo3(signature = (path, *, overwrite = false))]
+    fn save(&self, py: Python<'_>, path: PathBuf, overwrite: bool) -> PyResult<()> {
+        if !overwrite {
+            ceworld::files::check_new("path", &path, "give overwrite=True").or_raise()?;
+        }
         let learner = &self.learner;
         detached(py, || with_learner!(learner, q => q.save(path)))
     }

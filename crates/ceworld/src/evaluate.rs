@@ -154,22 +154,23 @@ pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
 }
 
 /// The rewards with which a run closes (its final evaluation, the score that chooses between
-/// restarts): of the episodes `0..episodes` of streams `(seed, purpose, 0, k)`, all of them, or
-/// for an `interrupted` run those that finish within the interrupt's grace.
+/// restarts): of the episodes `0..episodes` of streams `(seed, purpose, 0, k)`, in slices, those
+/// that finish before the world's interrupt cuts them (all of them where nothing does), and
+/// whether it cut them. An `interrupted` run closes within the interrupt's grace; a run that
+/// ended by its own rules and is interrupted while it closes keeps the slices done (Ctrl-C
+/// during the final evaluation gives the result with a shorter evaluation). An abort is an
+/// error.
 pub(crate) fn closing_rewards<E: Episodes + ?Sized>(
     world: &E,
     policy: &Hhmm,
     episodes: usize,
     seed: u64,
     purpose: Purpose,
-    interrupted: bool,
-) -> Result<Vec<f64>> {
+) -> Result<(Vec<f64>, bool)> {
     check_fits(world, policy)?;
-    if interrupted {
-        rewards_until_cut(world, policy, episodes, seed, purpose)
-    } else {
-        episode_rewards(world, policy, 0..episodes, seed, purpose)
-    }
+    let rewards = rewards_until_cut(world, policy, episodes, seed, purpose)?;
+    let cut = rewards.len() < episodes;
+    Ok((rewards, cut))
 }
 
 /// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between

@@ -181,5 +181,16 @@ pub fn infinite_horizon(world: &PomdpWorld, policy: &Hhmm, tolerance: f64) -> Re
     if !(tolerance.is_finite() && tolerance > 0.0) {
         return Err(Error::invalid("tolerance", format!("{tolerance} (expected a positive finite number)")));
     }
+    // At or past the bound of every value, no step would be computed: the value told would be 0.
+    let bound = world.tables().max_abs_reward() / (1.0 - gamma);
+    if bound > 0.0 && tolerance >= bound {
+        return Err(Error::invalid(
+            "tolerance",
+            format!(
+                "{tolerance} (expected less than {bound:.3e}, the largest reward over 1 - discount: a tolerance that large \
+                 bounds every value, and none would be computed)"
+            ),
+        ));
+    }
     recurse(world, policy, None, tolerance)
 }

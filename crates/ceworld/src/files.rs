@@ -178,6 +178,66 @@ pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> 
     Ok(bytes)
 }
 
+/// Where `path` leads, absolute: its symbolic links followed (a dangling link to where it
+/// points), its folder made canonical where it exists. Two paths that lead to one place name one
+/// file, existing or to be created; a checkpoint records its run's outputs so.
+pub fn resolved(path: &Path) -> PathBuf {
+    let target = target(path).unwrap_or_else(|_| path.to_path_buf());
+    let absolute = std::path::absolute(&target).unwrap_or(target);
+    match (absolute.parent(), absolute.file_name()) {
+        (Some(dir), Some(name)) => std::fs::canonicalize(dir).map_or_else(|_| absolute.clone(), |d| d.join(name)),
+        _ => absolute,
+    }
+}
+
+/// Whether `a` and `b` name one file: the same place ([`resolved`]), or one existing file (its
+/// device and inode: hard links too).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            return x.dev() == y.dev() && x.ino() == y.ino();
+        }
+    }
+    resolved(a) == resolved(b)
+}
+
+/// Refuses an output `path` (given as `option`) that is an existing file (links followed),
+/// where replacing it was not asked: `how` says how to ask (`"give --force"`, `"give
+/// overwrite=True"`). What is not a regular file is left to the writer's refusal.
+pub fn check_new(option: &str, path: &Path, how: &str) -> Result<()> {
+    if std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return Err(Error::invalid(
+            option,
+            format!("{} exists ({how} to replace it, or another name)", path.display()),
+        ));
+    }
+    Ok(())
+}
+
+/// The one rule of every command's files: no output is the same file as another output or as an
+/// input (`(option, path)` pairs; links followed, hard links seen), so that no result is written
+/// over another or over what the command reads.
+pub fn check_distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<()> {
+    for (i, (option, path)) in outputs.iter().enumerate() {
+        let others = outputs[..i].iter().map(|o| (o, "written")).chain(inputs.iter().map(|o| (o, "read")));
+        for ((other, other_path), role) in others {
+            if same_file(path, other_path) {
+                let link = if path == other_path { String::new() } else { format!(" ({})", other_path.display()) };
+                return Err(Error::invalid(
+                    *option,
+                    format!(
+                        "{} is the file that {other}{link} names, {role} by the same command (expected another name)",
+                        path.display()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// `bytes` in lowercase hex (a digest as files and checkpoints record it).
 pub fn hex(bytes: &[u8]) -> String {
     use std::fmt::Write as _;
@@ -317,6 +377,34 @@ mod tests {
             let e = read_limited(path, 1 << 30, "policy file").unwrap_err().to_string();
             assert!(e.contains("policy file") && e.contains(&path.display().to_string()), "{e}");
         }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn outputs_that_name_an_input_or_each_other_are_refused() {
+        let dir = temp_dir("distinct");
+        let (a, b) = (dir.join("a.json"), dir.join("b.json"));
+        std::fs::write(&a, b"policy").unwrap();
+        std::os::unix::fs::symlink("a.json", dir.join("link.json")).unwrap();
+        std::fs::hard_link(&a, dir.join("hard.json")).unwrap();
+        std::os::unix::fs::symlink("new.json", dir.join("dangling.json")).unwrap();
+        let sub = dir.join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        let via_dots = sub.join("..").join("a.json");
+        let inputs = [("FILE", a.as_path())];
+        for same in [a.clone(), dir.join("link.json"), dir.join("hard.json"), via_dots] {
+            let e = check_distinct(&inputs, &[("--pg", same.as_path())]).unwrap_err().to_string();
+            assert!(e.contains("--pg") && e.contains("FILE") && e.contains("read by the same command"), "{e}");
+        }
+        // Two outputs, one file to be created (once through a dangling link).
+        let new = dir.join("new.json");
+        for (x, y) in [(&new, &new), (&dir.join("dangling.json"), &new)] {
+            let e = check_distinct(&[], &[("--out", x), ("--history", y)]).unwrap_err().to_string();
+            assert!(e.contains("--history") && e.contains("--out") && e.contains("written"), "{e}");
+        }
+        check_distinct(&inputs, &[("--out", b.as_path()), ("--history", new.as_path())]).unwrap();
+        assert_eq!(resolved(&dir.join("dangling.json")), resolved(&new));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -6,8 +6,8 @@
 mod temp;
 
 use ceworld::{
-    CeConfig, CeResult, Checkpointing, Error, Flow, MemoryUpdate, StopReason, TargetTracking, TrackingParams, optimize,
-    optimize_with, random_policy,
+    CeCheckpoint, CeConfig, CeResult, Checkpointing, Error, Flow, MemoryUpdate, StopReason, TargetTracking,
+    TrackingParams, optimize, optimize_with, random_policy,
 };
 
 fn temp(name: &str) -> temp::TempPath {
@@ -38,7 +38,7 @@ fn uninterrupted(config: &CeConfig) -> CeResult {
 /// session), resuming until done; returns the final result and the number of sessions.
 fn in_sessions(config: &CeConfig, path: &std::path::Path, stops: &[usize]) -> (CeResult, usize) {
     let w = world();
-    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let mut seen = 0;
     let mut sessions = 0;
     loop {
@@ -119,7 +119,7 @@ fn a_checkpoint_of_other_settings_or_another_world_is_refused() {
     let path = temp("mismatch.ckpt");
     in_sessions(&config, &path, &[3]);
     let w = world();
-    let resume = Checkpointing { path: path.to_path_buf(), every: 60.0, resume: true };
+    let resume = Checkpointing { path: path.to_path_buf(), every: 60.0, resume: true, outputs: Vec::new() };
     let run = |w: &TargetTracking, config: &CeConfig, levels: &[usize]| {
         optimize_with(w, random_policy(w, levels, 1).unwrap(), config, Some(&resume), |_| Flow::Continue)
     };
@@ -149,11 +149,42 @@ fn a_checkpoint_of_other_settings_or_another_world_is_refused() {
 /// A change made to a checkpoint's JSON.
 type Edit = fn(&mut serde_json::Value);
 
+#[test]
+fn a_checkpoint_of_the_version_before_digests_resumes_unverified_and_says_so() {
+    let path = temp("old.ckpt");
+    let w = world();
+    let config = CeConfig { max_iterations: Some(6), ..config() };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
+    let mut seen = 0;
+    let stopped = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {
+        seen += 1;
+        if seen == 3 { Flow::Stop } else { Flow::Continue }
+    })
+    .unwrap();
+    assert!(stopped.interrupted());
+    assert_eq!(CeCheckpoint::peek(&path).unwrap().unverified, None, "a file of this version is verified");
+    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&*path).unwrap()).unwrap();
+    assert_eq!(doc["version"], 2);
+    doc.as_object_mut().unwrap().remove("digest");
+    doc["version"] = 1.into();
+    std::fs::write(&*path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let warning = CeCheckpoint::peek(&path).unwrap().unverified.expect("an unverified file is named");
+    assert!(warning.contains("version 1") && warning.contains("unverified"), "{warning}");
+    let resumed =
+        optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| Flow::Continue)
+            .unwrap();
+    assert_same(&resumed, &uninterrupted(&config));
+    doc["version"] = 0.into();
+    std::fs::write(&*path, serde_json::to_vec(&doc).unwrap()).unwrap();
+    let e = CeCheckpoint::peek(&path).unwrap_err().to_string();
+    assert!(e.contains("version 0 (expected 1 to 2)"), "{e}");
+}
+
 /// A checkpoint stopped in the second of two runs, as JSON.
 fn stopped_in_the_second_run(path: &std::path::Path) -> serde_json::Value {
     let w = world();
     let config = CeConfig { restarts: 2, max_iterations: Some(5), ..config() };
-    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let mut seen = 0;
     let out = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {
         seen += 1;
@@ -171,7 +202,7 @@ fn a_tampered_checkpoint_is_refused_by_what_is_inconsistent() {
     assert_eq!((saved["restart"].as_u64(), saved["run"]["history"].as_array().map(Vec::len)), (Some(1), Some(3)));
     let w = world();
     let config = CeConfig { restarts: 2, max_iterations: Some(5), ..config() };
-    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let edits: [(&str, Edit, &str); 8] = [
         ("the run index", |c| c["restart"] = 5.into(), "run 5"),
         ("a finished run dropped", |c| c["finished"] = serde_json::json!([]), "runs finished"),
@@ -192,11 +223,20 @@ fn a_tampered_checkpoint_is_refused_by_what_is_inconsistent() {
         }
         other => panic!("a changed file: {other:?}"),
     }
-    // Without the digest (a file of an earlier engine, or one whose digest was made again), the
-    // state itself is checked.
+    // A file of the current version stripped of its digest is refused, whatever else it holds.
+    let mut c = saved.clone();
+    c.as_object_mut().unwrap().remove("digest").expect("a digest");
+    std::fs::write(&*path, serde_json::to_vec(&c).unwrap()).unwrap();
+    match optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| Flow::Continue) {
+        Err(Error::CheckpointFormat { message, .. }) => assert!(message.contains("has no \"digest\""), "{message}"),
+        other => panic!("a file without its digest: {other:?}"),
+    }
+    // A file of the version before digests were required (read, unverified), or one whose
+    // digest was made again: the state itself is checked.
     for (what, edit, needle) in edits {
         let mut c = saved.clone();
         c.as_object_mut().unwrap().remove("digest").expect("a digest");
+        c["version"] = 1.into();
         edit(&mut c);
         std::fs::write(&*path, serde_json::to_vec(&c).unwrap()).unwrap();
         match optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {

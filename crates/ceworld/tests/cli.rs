@@ -151,9 +151,10 @@ fn the_memory_guard_obeys_the_process_limits() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("needs") && stderr.contains("ulimit -v"), "{stderr}");
-    // A 58-byte model of 2^28 actions: its tables (16 GiB) are refused before they are made.
+    // A 57-byte model of 2^26 actions (tables within the entries allowed): its tables and their
+    // rows' positions (over 3 GiB) are refused before they are made.
     let model = temp("huge.pomdp");
-    std::fs::write(&*model, "states: 1\nactions: 268435456\nobservations: 1\nO: * uniform\n").unwrap();
+    std::fs::write(&*model, "states: 1\nactions: 67108864\nobservations: 1\nO: * uniform\n").unwrap();
     let command = format!(
         "ulimit -v 3000000 && exec timeout 60 {} optimize --pomdp {} -q",
         env!("CARGO_BIN_EXE_ceworld"),
@@ -446,4 +447,92 @@ fn show_writes_the_most_likely_controller_of_a_stochastic_policy() {
     let declared = dot.lines().filter(node_line).count();
     assert_eq!(declared, nodes, "{dot}");
     fails_with(&["show", policy.to_str().unwrap(), "--prune", "1"], &["--prune", "0 <= p < 1"]);
+}
+
+/// `a` then `b`.
+fn joined<'a>(a: &[&'a str], b: &[&'a str]) -> Vec<&'a str> {
+    a.iter().chain(b).copied().collect()
+}
+
+#[test]
+fn no_output_is_an_input_or_another_output_and_a_resume_replaces_only_its_own() {
+    let dir = temp("outputs");
+    let folder = dir.parent().unwrap();
+    let path = |name: &str| folder.join(name).to_str().unwrap().to_string();
+    let base = ["optimize", "--case", "1", "--levels", "2", "--samples", "60", "--quiet"];
+    let run = joined(&base, &["--max-iterations", "2"]);
+    // One file named twice: the policy would be lost under the history, the checkpoint broken.
+    let (same, ck) = (path("same.jsonl"), path("ck.json"));
+    fails_with(&joined(&run, &["--out", &same, "--history", &same]), &["--history", "--out", "same command"]);
+    fails_with(
+        &joined(&run, &["--out", &path("p.json"), "--history", &ck, "--checkpoint", &ck]),
+        &["--checkpoint", "--history"],
+    );
+    fails_with(&joined(&run, &["--out", &ck, "--checkpoint", &ck]), &["--checkpoint", "--out"]);
+    assert!(!folder.join("same.jsonl").exists() && !folder.join("ck.json").exists(), "nothing was written");
+    // A run with its outputs recorded in its checkpoint.
+    let (out, history, other) = (path("run.json"), path("run.jsonl"), path("other.jsonl"));
+    let first = ceworld(&joined(&run, &["--out", &out, "--history", &history, "--checkpoint", &ck]));
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    // An input is never an output (a link to it neither), whatever --force says.
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(&out, folder.join("link.json")).unwrap();
+    let init = ["optimize", "--case", "1", "--samples", "60", "--max-iterations", "1", "--quiet", "--init", &out];
+    fails_with(&joined(&init, &["--out", &out, "--force"]), &["--out", "--init", "read by the same command"]);
+    #[cfg(unix)]
+    fails_with(&joined(&init, &["--out", &path("link.json"), "--force"]), &["--out", "--init"]);
+    // Its resume may replace what it wrote, and nothing else.
+    std::fs::write(&other, "another run's history\n").unwrap();
+    let resume = joined(&base, &["--max-iterations", "3", "--checkpoint", &ck, "--resume", "--out", &out]);
+    fails_with(&[&resume[..], &["--history", &other]].concat(), &["--history", "not an output of the run that wrote"]);
+    assert_eq!(std::fs::read_to_string(&other).unwrap(), "another run's history\n");
+    let resumed = ceworld(&[&resume[..], &["--history", &history]].concat());
+    assert!(resumed.status.success(), "{}", String::from_utf8_lossy(&resumed.stderr));
+    assert_eq!(std::fs::read_to_string(&history).unwrap().lines().count(), 3);
+    // `show` writes no file over the policy it reads, nor over an existing file unasked.
+    let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+    let keep = path("keep.json");
+    let search = ["controller", "--pomdp", &tiger, "--nodes", "2", "--max-iterations", "2", "--quiet", "--out", &keep];
+    assert!(ceworld(&search).status.success());
+    let kept = std::fs::read(&keep).unwrap();
+    for option in ["--pg", "--dot", "--json"] {
+        fails_with(&["show", &keep, option, &keep, "--force"], &[option, "FILE", "read by the same command"]);
+    }
+    fails_with(&["show", &keep, "--dot", &tiger, "--force"], &["--dot", "model file"]);
+    assert_eq!(std::fs::read(&keep).unwrap(), kept, "the policy read is intact");
+    let dot = path("keep.dot");
+    assert!(ceworld(&["show", &keep, "--dot", &dot]).status.success());
+    fails_with(&["show", &keep, "--dot", &dot], &["--dot", "exists (give --force"]);
+    assert!(ceworld(&["show", &keep, "--dot", &dot, "--force"]).status.success());
+    // The controller search's outputs obey the same rule.
+    let both = [&search[..7], &["--out", &same, "--history", &same]].concat();
+    fails_with(&both, &["--history", "--out"]);
+}
+
+#[test]
+fn exact_values_refuse_a_tolerance_that_bounds_every_value() {
+    let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+    let policy = temp("tolerance.json");
+    let p = policy.to_str().unwrap();
+    let search = ["controller", "--pomdp", &tiger, "--nodes", "2", "--max-iterations", "2", "--quiet", "--out", p];
+    assert!(ceworld(&search).status.success());
+    fails_with(
+        &["evaluate", p, "--exact", "--tolerance", "1.8e19"],
+        &["tolerance", "18000000000000000000", "expected less than"],
+    );
+    let fine = ceworld(&["evaluate", p, "--exact", "--tolerance", "1e-3"]);
+    assert!(String::from_utf8_lossy(&fine.stdout).contains("infinite-horizon value"));
+}
+
+#[test]
+fn a_tiny_model_file_of_huge_tables_is_refused_at_once() {
+    // 90 bytes asking for two dense tables of 2^28 entries (4 GiB) through wildcards.
+    let model = temp("huge.pomdp");
+    std::fs::write(
+        &model,
+        "states: 16384\nactions: 1\nobservations: 16384\nT: * uniform\nO: * uniform\nR: * : * : * : * 1\n",
+    )
+    .unwrap();
+    // Refused by the header's check (the tables' size), not after building them.
+    fails_with(&["optimize", "--pomdp", model.to_str().unwrap(), "--quiet"], &["16384", "67108864 entries"]);
 }

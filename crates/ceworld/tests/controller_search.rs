@@ -238,7 +238,7 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         let (injected, grown) = (whole.history.iter().any(|r| r.injected), whole.history.iter().any(|r| r.grown));
         assert!(injected && grown, "{name}: injected {injected}, grown {grown}");
         let path = dir.join(format!("{name}.ckpt"));
-        let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: true };
+        let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: true, outputs: Vec::new() };
         // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.
         let mut sessions = 0;
         let resumed = loop {
@@ -276,7 +276,7 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
     }
     // An exact search's checkpoint is not a sampled one's.
     let path = dir.join("exact.ckpt");
-    let checkpointing = Checkpointing { path, every: 1e9, resume: true };
+    let checkpointing = Checkpointing { path, every: 1e9, resume: true, outputs: Vec::new() };
     let e = optimize_controller_with(Valued::Sampled(&tiger), &config, Some(&checkpointing), |_| Flow::Continue)
         .unwrap_err();
     assert!(e.to_string().contains("value exact, not sampled"), "{e}");

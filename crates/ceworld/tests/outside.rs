@@ -455,7 +455,7 @@ fn a_stop_cuts_the_iteration_between_two_steps_and_a_resumed_run_draws_it_again(
     let initial = random_policy(&RING, &[3, 2], 4).unwrap();
     let reference = optimize(&RING, initial.clone(), &config(2), |_| Flow::Continue).unwrap();
     let path = temp::TempPath::new("ceworld-interrupt", "run.ckpt");
-    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let world = interrupted_ring(50, &[100]);
     let cut = optimize_with(&world, initial.clone(), &config(2), Some(&checkpointing), |_| Flow::Continue).unwrap();
     assert!(cut.interrupted() && (1..6).contains(&cut.history.len()), "{} iterations", cut.history.len());
@@ -507,7 +507,7 @@ fn a_checkpoint_that_cannot_be_written_does_not_cost_the_result() {
     let path = dir.join("run.ckpt");
     for every in [1e9, 0.0001] {
         std::fs::create_dir_all(&*dir).unwrap();
-        let checkpointing = Checkpointing { path: path.clone(), every, resume: false };
+        let checkpointing = Checkpointing { path: path.clone(), every, resume: false, outputs: Vec::new() };
         let world = Lockstep::new(RingBatch { remove: Some((100, dir.to_path_buf())), ..RingBatch::new(50) }).unwrap();
         let result =
             optimize_with(&world, initial.clone(), &config(2), Some(&checkpointing), |_| Flow::Continue).unwrap();

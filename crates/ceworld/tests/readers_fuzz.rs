@@ -139,7 +139,7 @@ fn damaged_checkpoints() {
     let w = world();
     let config = CeConfig { samples: 100, max_iterations: Some(3), eval_episodes: 50, ..CeConfig::default() };
     let path = temp("good.ckpt");
-    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: false };
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: false, outputs: Vec::new() };
     let initial = random_policy(&w, &[3, 2], 1).unwrap();
     optimize_with(&w, initial, &config, Some(&checkpointing), |_| Flow::Continue).unwrap();
     let good = std::fs::read(&path).unwrap();
@@ -229,7 +229,7 @@ fn tampered_checkpoints_are_refused_or_change_nothing() {
     let initial = random_policy(&w, &[3, 2], 1).unwrap();
     let reference = optimize(&w, initial.clone(), &config, |_| Flow::Continue).unwrap();
     let good = temp("mid.ckpt");
-    let checkpointing = Checkpointing { path: good.to_path_buf(), every: 1e9, resume: true };
+    let checkpointing = Checkpointing { path: good.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let mut seen = 0;
     let cut = optimize_with(&w, initial.clone(), &config, Some(&checkpointing), |_| {
         seen += 1;
@@ -244,7 +244,8 @@ fn tampered_checkpoints_are_refused_or_change_nothing() {
     let mut rng = Rng(seed() ^ 0x7a11);
     let (mut refused, mut harmless, mut changed) = (0, 0, Vec::new());
     let path = temp("tampered.ckpt");
-    let tampered_checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true };
+    let tampered_checkpointing =
+        Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     // The tables' entries are most leaves: three times in four, a leaf that is not one.
     let (tables, others): (Vec<_>, Vec<_>) = paths.iter().partition(|p| p.iter().any(|k| k == "probs"));
     for case in 0..iterations() / 3 {

@@ -43,7 +43,7 @@ def job_policy(run: dict[str, Any], out_dir: Path) -> Any:
             flush=True,
         )
     path.parent.mkdir(parents=True, exist_ok=True)
-    result.policy.save(path)
+    result.policy.save(path, overwrite=True)
     return result.policy
 
 

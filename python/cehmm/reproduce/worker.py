@@ -73,7 +73,7 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
             return {"interrupted": True}
         policy_path = Path("policies") / f"{stem}.json"
         (out_dir / "policies").mkdir(parents=True, exist_ok=True)
-        result.policy.save(out_dir / policy_path)
+        result.policy.save(out_dir / policy_path, overwrite=True)
         checkpoint.unlink(missing_ok=True)  # the record written by the caller is the job's result now
     except KeyboardInterrupt:
         return {"interrupted": True}

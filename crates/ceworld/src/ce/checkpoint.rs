@@ -46,7 +46,9 @@ pub type CeCheckpoint = Checkpoint<CeRun>;
 
 impl Resumable for CeRun {
     const FORMAT: &'static str = FORMAT;
-    const VERSION: u64 = 1;
+    /// 2: the digest required, the outputs recorded.
+    const VERSION: u64 = 2;
+    const OLDEST: u64 = 1;
     type Config = CeConfig;
     type Run = RunState;
     type Finished = FinishedRun;

@@ -96,9 +96,13 @@ pub fn optimize_with<E: Episodes + ?Sized>(
             result.checkpoint_error = saver.failed.take();
             return Ok(result);
         }
-        let (policy, cut) = (&result.policy, result.interrupted());
-        let scored =
-            pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select, cut))?;
+        let policy = &result.policy;
+        let (scored, cut) =
+            pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select))?;
+        if cut {
+            // Interrupted while scored: the checkpoint holds the run, which a resume closes again.
+            result.stop = StopReason::Interrupted;
+        }
         let score = crate::evaluate::mean(scored.iter().copied());
         if result.interrupted() {
             // The checkpoint keeps this run's state, to be continued.
@@ -267,8 +271,9 @@ fn optimize_once<E: Episodes + ?Sized>(
     // What an interrupted run kept is evaluated (and scored) for at most the interrupt's grace.
     world.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
     let (episodes, seed) = (config.eval_episodes, config.seed);
-    let rewards =
-        pool.install(|| closing_rewards(world, &best_policy, episodes, seed, Purpose::Evaluate, interrupted))?;
+    let (rewards, cut) = pool.install(|| closing_rewards(world, &best_policy, episodes, seed, Purpose::Evaluate))?;
+    // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
+    let stop = if cut { StopReason::Interrupted } else { stop };
     Ok(CeResult {
         policy: best_policy,
         last_policy: policy,

@@ -37,6 +37,10 @@ pub struct Checkpointing {
     pub every: f64,
     /// Continue from `path` when it exists (a missing file starts a fresh run).
     pub resume: bool,
+    /// The files the run's caller writes from its result (the command line's --out and
+    /// --history): recorded in the checkpoint, so that the resume of this run, and only this
+    /// run, may replace them ([`Peek::outputs`]).
+    pub outputs: Vec<std::path::PathBuf>,
 }
 
 impl Checkpointing {
@@ -56,8 +60,12 @@ impl Checkpointing {
 pub trait Resumable {
     /// The `"format"` of its checkpoint files.
     const FORMAT: &'static str;
-    /// The version of that format written (and the only one read).
+    /// The version of that format written.
     const VERSION: u64;
+    /// The oldest version read: versions before [`Resumable::VERSION`] were written before
+    /// checkpoints had to carry their digest, and are read as unverified where they carry none
+    /// ([`Peek::unverified`]); a file of the current version without its digest is refused.
+    const OLDEST: u64;
     /// Its settings.
     type Config: Clone + Serialize + DeserializeOwned;
     /// The state of a run between two iterations.
@@ -115,6 +123,9 @@ pub struct Checkpoint<K: Resumable> {
     /// refused on resume).
     #[serde(default)]
     pub start: Option<String>,
+    /// The files written from the run's result ([`Checkpointing::outputs`], resolved).
+    #[serde(default)]
+    pub outputs: Vec<String>,
 }
 
 impl<K: Resumable> Checkpoint<K> {
@@ -131,6 +142,7 @@ impl<K: Resumable> Checkpoint<K> {
             seconds: 0.0,
             engine_version: crate::VERSION.into(),
             start,
+            outputs: Vec::new(),
         }
     }
 
@@ -149,30 +161,70 @@ impl<K: Resumable> Checkpoint<K> {
 
     /// Reads a checkpoint saved by [`Checkpoint::save`].
     pub fn load(path: &Path) -> Result<Checkpoint<K>> {
+        let (mut doc, version) = Self::document(path)?;
+        let bad = |message: String| Error::CheckpointFormat { path: path.to_path_buf(), message };
+        match doc.as_object_mut().and_then(|m| m.remove("digest")) {
+            Some(stated) => {
+                let actual = content_digest(&doc);
+                if stated.as_str() != Some(actual.as_str()) {
+                    return Err(bad(format!(
+                        "its content does not match its digest (it was changed after it was written: {stated} stated, {actual} found)"
+                    )));
+                }
+            }
+            // Only files of the versions written before the digest was required lack it (read
+            // as unverified: [`Checkpoint::peek`] tells).
+            None if version == K::VERSION => {
+                return Err(bad(format!(
+                    "it has no \"digest\" (a checkpoint of version {version} carries the SHA-256 of its content: \
+                     this one was changed after it was written)"
+                )));
+            }
+            None => {}
+        }
+        let checkpoint: Checkpoint<K> = serde_json::from_value(doc).map_err(|e| bad(e.to_string()))?;
+        checkpoint.check_consistent().map_err(bad)?;
+        Ok(checkpoint)
+    }
+
+    /// What the checkpoint at `path` says of itself before a run resumes from it (read again
+    /// and verified whole by [`Checkpoint::load`] when the run starts).
+    pub fn peek(path: &Path) -> Result<Peek> {
+        let (doc, version) = Self::document(path)?;
+        let unverified = (doc.get("digest").is_none() && version < K::VERSION).then(|| {
+            format!(
+                "{} is a checkpoint of version {version}, written before checkpoints carried the digest of their \
+                 content: it is resumed unverified (a change made to it since cannot be detected)",
+                path.display()
+            )
+        });
+        let outputs = match doc.get("outputs") {
+            Some(Value::Array(paths)) => paths.iter().filter_map(Value::as_str).map(std::path::PathBuf::from).collect(),
+            _ => Vec::new(),
+        };
+        Ok(Peek { unverified, outputs })
+    }
+
+    /// The JSON document of the checkpoint at `path` and its version, checked to be of this
+    /// optimiser's format and of a version read.
+    fn document(path: &Path) -> Result<(Value, u64)> {
         let bytes = crate::files::read_limited(path, MAX_CHECKPOINT_BYTES, "checkpoint")?;
         let bad = |message: String| Error::CheckpointFormat { path: path.to_path_buf(), message };
-        let mut doc: Value =
+        let doc: Value =
             serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a checkpoint: invalid JSON ({e})")))?;
         match doc.get("format").and_then(Value::as_str) {
             Some(f) if f == K::FORMAT => {}
             _ => return Err(bad(format!("not a checkpoint (expected \"format\": \"{}\")", K::FORMAT))),
         }
         match doc.get("version").and_then(Value::as_u64) {
-            Some(v) if v == K::VERSION => {}
-            other => return Err(bad(format!("checkpoint version {other:?} (expected {})", K::VERSION))),
+            Some(v) if (K::OLDEST..=K::VERSION).contains(&v) => Ok((doc, v)),
+            other => Err(bad(format!(
+                "checkpoint version {} (expected {} to {})",
+                other.map_or_else(|| "missing".to_string(), |v| v.to_string()),
+                K::OLDEST,
+                K::VERSION
+            ))),
         }
-        // Files of earlier versions of the engine carry no digest; one that does must match.
-        if let Some(stated) = doc.as_object_mut().and_then(|m| m.remove("digest")) {
-            let actual = content_digest(&doc);
-            if stated.as_str() != Some(actual.as_str()) {
-                return Err(bad(format!(
-                    "its content does not match its digest (it was changed after it was written: {stated} stated, {actual} found)"
-                )));
-            }
-        }
-        let checkpoint: Checkpoint<K> = serde_json::from_value(doc).map_err(|e| bad(e.to_string()))?;
-        checkpoint.check_consistent().map_err(bad)?;
-        Ok(checkpoint)
     }
 
     /// Refuses a state that no run could have saved (a tampered or corrupted file).
@@ -219,6 +271,17 @@ impl<K: Resumable> Checkpoint<K> {
         }
         Ok(())
     }
+}
+
+/// What a checkpoint says of itself before a run resumes from it ([`Checkpoint::peek`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Peek {
+    /// Why its content cannot be verified (a file of an earlier version, without a digest), to
+    /// be told as a warning; `None` for a verified file.
+    pub unverified: Option<String>,
+    /// The files the run that wrote it writes from its result (resolved paths): its resume may
+    /// replace them.
+    pub outputs: Vec<std::path::PathBuf>,
 }
 
 /// What to tell the user of a result whose last checkpoint failed with `error`.
@@ -279,7 +342,10 @@ impl<'a, K: Resumable> Saver<'a, K> {
                     .into(),
             ));
         }
-        let state = state.unwrap_or_else(|| Checkpoint::fresh(world_json, config, start));
+        let mut state = state.unwrap_or_else(|| Checkpoint::fresh(world_json, config, start));
+        if let Some(c) = checkpointing {
+            state.outputs = c.outputs.iter().map(|p| crate::files::resolved(p).display().to_string()).collect();
+        }
         let now = Instant::now();
         Ok(Saver { checkpointing, before: state.seconds, state, started: now, last_save: now, failed: None })
     }

@@ -46,8 +46,8 @@ pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     };
     config.validate()?;
     // The result is not lost to an unwritable --out found after the run.
-    args.output.check()?;
-    let checkpointing = args.output.checkpoint.checkpointing(args.output.quiet)?;
+    args.output.check::<crate::ce::controller::checkpoint::ControllerSearch>(&args.world.files())?;
+    let checkpointing = args.output.checkpointing()?;
     stop::install();
     let mut progress =
         (!args.output.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));

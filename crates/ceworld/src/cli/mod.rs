@@ -86,6 +86,9 @@ enum Command {
         /// only they reach).
         #[arg(long, default_value_t = crate::policy::graph::PRUNE)]
         prune: f64,
+        /// Replace --json, --pg and --dot when they exist.
+        #[arg(long)]
+        force: bool,
     },
     /// Print the exact optimum of a world (known for case 1, fixed target).
     Optimum {
@@ -188,12 +191,14 @@ impl CheckpointArgs {
         self.resume && self.checkpoint.as_ref().is_some_and(|p| p.exists())
     }
 
-    /// The checkpoints asked for, checked; says when a run resumes (unless `quiet`).
-    pub(crate) fn checkpointing(&self, quiet: bool) -> Result<Option<crate::Checkpointing>> {
+    /// The checkpoints asked for, checked, recording the run's `outputs`; says when a run
+    /// resumes (unless `quiet`).
+    fn checkpointing(&self, quiet: bool, outputs: Vec<PathBuf>) -> Result<Option<crate::Checkpointing>> {
         let checkpointing = self.checkpoint.as_ref().map(|path| crate::Checkpointing {
             path: path.clone(),
             every: self.checkpoint_every,
             resume: self.resume,
+            outputs,
         });
         if let Some(c) = &checkpointing {
             c.validate()?;
@@ -202,6 +207,20 @@ impl CheckpointArgs {
             }
         }
         Ok(checkpointing)
+    }
+}
+
+impl WorldArgs {
+    /// The files the world is read from (a .pomdp file), by the option that names them.
+    pub(crate) fn files(&self) -> Vec<(&'static str, &std::path::Path)> {
+        let mut files: Vec<(&str, &std::path::Path)> = self.pomdp.iter().map(|p| ("--pomdp", p.as_path())).collect();
+        files.extend(
+            self.params
+                .iter()
+                .filter_map(|p| p.strip_prefix("file="))
+                .map(|f| ("--param file", std::path::Path::new(f))),
+        );
+        files
     }
 }
 
@@ -266,7 +285,9 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     let config = args.config.clone();
     config.validate()?;
     // The result is not lost to an unwritable --out found after the run.
-    args.output.check()?;
+    let mut inputs = args.world.files();
+    inputs.extend(args.init.as_deref().map(|p| ("--init", p)));
+    args.output.check::<crate::ce::checkpoint::CeRun>(&inputs)?;
     let initial = if let Some(path) = &args.init {
         PolicyFile::load(path)?.policy
     } else {
@@ -294,7 +315,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     }
     let mut progress =
         (!args.output.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
-    let checkpointing = args.output.checkpoint.checkpointing(args.output.quiet)?;
+    let checkpointing = args.output.checkpointing()?;
     let result = optimize_with(world, initial, &config, checkpointing.as_ref(), |r| {
         if let Some(progress) = &mut progress {
             progress.update(r);
@@ -335,6 +356,58 @@ fn exact_value(world: &crate::PomdpWorld, policy: &crate::Hhmm) -> Result<f64> {
     } else {
         Ok(crate::exact::finite_horizon(world, policy, None)?.value)
     }
+}
+
+/// `show`: a tabular world's policy as a policy graph, printed and written where asked.
+fn run_show(
+    file: &std::path::Path,
+    json: Option<&std::path::Path>,
+    pg: Option<&std::path::Path>,
+    dot: Option<&std::path::Path>,
+    prune: f64,
+    force: bool,
+) -> Result<()> {
+    if !(0.0..1.0).contains(&prune) {
+        return Err(Error::invalid("--prune", format!("{prune} (expected a probability 0 <= p < 1)")));
+    }
+    let f = PolicyFile::load(file)?;
+    let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
+        return Err(Error::invalid("show", "the policy's world is not tabular (expected a pomdp world)"));
+    };
+    let model_file = PathBuf::from(&world.params().file);
+    let outputs: Vec<(&str, &std::path::Path)> =
+        [("--json", json), ("--pg", pg), ("--dot", dot)].into_iter().filter_map(|(o, p)| Some((o, p?))).collect();
+    check_outputs(&[("FILE", file), ("the policy's model file", &model_file)], &outputs, force)?;
+    let graph = world.graph(&f.policy, prune)?;
+    let model = &world.tables().pomdp;
+    print!("{}", graph.describe(&model.actions, &model.observations));
+    let write = |path: &std::path::Path, text: String| {
+        crate::files::write_atomic(path, |out| std::io::Write::write_all(out, text.as_bytes()))
+    };
+    if let Some(path) = pg {
+        if world.graph(&f.policy, 0.0)?.is_deterministic() {
+            write(path, world.graph(&f.policy, 0.0)?.to_pg()?)?;
+        } else {
+            let likely = f.policy.most_likely();
+            let controller = world.graph(&likely, 0.0)?;
+            write(path, controller.to_pg()?)?;
+            println!(
+                "stochastic policy: {} holds its most likely controller ({} nodes, each law at its likeliest outcome): exact value {:.4} (the stochastic policy's: {:.4})",
+                path.display(),
+                controller.nodes.len(),
+                exact_value(&world, &likely)?,
+                exact_value(&world, &f.policy)?
+            );
+        }
+    }
+    if let Some(path) = json {
+        let doc = graph.to_json(&model.actions, &model.observations);
+        write(path, serde_json::to_string_pretty(&doc).expect("a graph serialises"))?;
+    }
+    if let Some(path) = dot {
+        write(path, graph.to_dot(&model.actions, &model.observations))?;
+    }
+    Ok(())
 }
 
 fn run(command: Command) -> Result<()> {
@@ -386,44 +459,8 @@ fn run(command: Command) -> Result<()> {
             );
             Ok(())
         }
-        Command::Show { file, json, pg, dot, prune } => {
-            if !(0.0..1.0).contains(&prune) {
-                return Err(Error::invalid("--prune", format!("{prune} (expected a probability 0 <= p < 1)")));
-            }
-            let f = PolicyFile::load(&file)?;
-            let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
-                return Err(Error::invalid("show", "the policy's world is not tabular (expected a pomdp world)"));
-            };
-            let graph = world.graph(&f.policy, prune)?;
-            let model = &world.tables().pomdp;
-            print!("{}", graph.describe(&model.actions, &model.observations));
-            let write = |path: &PathBuf, text: String| {
-                crate::files::write_atomic(path, |out| std::io::Write::write_all(out, text.as_bytes()))
-            };
-            if let Some(path) = &pg {
-                if world.graph(&f.policy, 0.0)?.is_deterministic() {
-                    write(path, world.graph(&f.policy, 0.0)?.to_pg()?)?;
-                } else {
-                    let likely = f.policy.most_likely();
-                    let controller = world.graph(&likely, 0.0)?;
-                    write(path, controller.to_pg()?)?;
-                    println!(
-                        "stochastic policy: {} holds its most likely controller ({} nodes, each law at its likeliest outcome): exact value {:.4} (the stochastic policy's: {:.4})",
-                        path.display(),
-                        controller.nodes.len(),
-                        exact_value(&world, &likely)?,
-                        exact_value(&world, &f.policy)?
-                    );
-                }
-            }
-            if let Some(path) = &json {
-                let doc = graph.to_json(&model.actions, &model.observations);
-                write(path, serde_json::to_string_pretty(&doc).expect("a graph serialises"))?;
-            }
-            if let Some(path) = &dot {
-                write(path, graph.to_dot(&model.actions, &model.observations))?;
-            }
-            Ok(())
+        Command::Show { file, json, pg, dot, prune, force } => {
+            run_show(&file, json.as_deref(), pg.as_deref(), dot.as_deref(), prune, force)
         }
         Command::Optimum { world } => {
             let world = world_from(&world)?;
@@ -433,6 +470,23 @@ fn run(command: Command) -> Result<()> {
         Command::Qlearn(args) => run_qlearn(&args),
         Command::QlearnEval(args) => run_qlearn_eval(&args),
     }
+}
+
+/// Refuses, before any work, `outputs` (option, path) that are the same file as an input or as
+/// each other, that exist (unless `force`), or that cannot be written.
+pub(crate) fn check_outputs(
+    inputs: &[(&str, &std::path::Path)],
+    outputs: &[(&str, &std::path::Path)],
+    force: bool,
+) -> Result<()> {
+    crate::files::check_distinct(inputs, outputs)?;
+    for (option, path) in outputs {
+        if !force {
+            crate::files::check_new(option, path, "give --force")?;
+        }
+        crate::files::check_writable(path)?;
+    }
+    Ok(())
 }
 
 /// Memory sizes per level as the command line writes them and shows its default: `16,16`.

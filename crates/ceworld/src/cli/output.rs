@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use serde_json::Value;
 
+use crate::ce::resume::{Checkpoint, Resumable};
 use crate::cli::CheckpointArgs;
 use crate::error::{Error, Result};
 use crate::policy::file::PolicyFile;
@@ -42,25 +43,51 @@ enum HistoryFormat {
 }
 
 impl OutputArgs {
-    /// Refuses, before the run, an output that cannot be written or would replace a file
-    /// unasked, and a history file of an unknown kind.
-    pub fn check(&self) -> Result<()> {
-        let resuming = self.checkpoint.resuming();
+    /// Refuses, before the run, an output that cannot be written, that is the same file as an
+    /// input (`inputs`: `(option, path)`) or as another output, or that would replace a file
+    /// unasked (an existing --out or --history is replaced with --force, or by the resume of
+    /// the run that wrote them, which its checkpoint records), and a history file of an unknown
+    /// kind; warns of a checkpoint resumed unverified. `K` is the optimiser whose checkpoint
+    /// --checkpoint names.
+    pub fn check<K: Resumable>(&self, inputs: &[(&str, &Path)]) -> Result<()> {
+        let checkpoint = self.checkpoint.checkpoint.as_deref();
+        let resumed = match checkpoint {
+            Some(path) if self.checkpoint.resuming() => Some(Checkpoint::<K>::peek(path)?),
+            _ => None,
+        };
+        let mut outputs = vec![("--out", self.out.as_path())];
+        outputs.extend(self.history.as_deref().map(|h| ("--history", h)));
+        outputs.extend(checkpoint.map(|c| ("--checkpoint", c)));
+        crate::files::check_distinct(inputs, &outputs)?;
         for (option, path) in [("--out", Some(&self.out)), ("--history", self.history.as_ref())] {
             let Some(path) = path else { continue };
-            // A resumed run replaces what its earlier sessions wrote.
-            if path.exists() && !self.force && !resuming {
-                return Err(Error::invalid(
-                    option,
-                    format!("{} exists (give --force to replace it, or another name)", path.display()),
-                ));
+            let recorded = resumed.as_ref().is_some_and(|r| r.outputs.contains(&crate::files::resolved(path)));
+            if !self.force && !recorded {
+                let how = match (&resumed, checkpoint) {
+                    (Some(_), Some(c)) => {
+                        format!("not an output of the run that wrote {}: give --force", c.display())
+                    }
+                    _ => "give --force".into(),
+                };
+                crate::files::check_new(option, path, &how)?;
             }
             crate::files::check_writable(path)?;
         }
         if let Some(path) = &self.history {
             history_format(path)?;
         }
+        if let Some(warning) = resumed.and_then(|r| r.unverified) {
+            eprintln!("{}: warning: {warning}", crate::cli::program());
+        }
         Ok(())
+    }
+
+    /// The checkpoints asked for, checked, recording this run's outputs; says when a run
+    /// resumes (unless --quiet).
+    pub fn checkpointing(&self) -> Result<Option<crate::Checkpointing>> {
+        let mut outputs = vec![self.out.clone()];
+        outputs.extend(self.history.clone());
+        self.checkpoint.checkpointing(self.quiet, outputs)
     }
 
     /// Saves a run's result: the policy `file` to --out, its `history` to --history if given,

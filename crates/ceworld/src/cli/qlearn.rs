@@ -119,6 +119,9 @@ pub(crate) struct QlearnEvalArgs {
     /// Also write the reports as JSON to this file.
     #[arg(long, value_name = "FILE.json")]
     json: Option<PathBuf>,
+    /// Replace --json when it exists.
+    #[arg(long)]
+    force: bool,
 }
 
 /// A count such as 1000000, `1_000_000` or 1e9.
@@ -172,6 +175,19 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
     config.validate()?;
     args.windows.config().validate()?;
     let checkpoint = args.checkpoint.clone().unwrap_or_else(|| args.out.clone());
+    // The table is its own checkpoint unless --checkpoint names another file; then --out is a
+    // result like any other (replaced by --overwrite, or by --resume of the run that writes it).
+    let mut outputs = vec![("--checkpoint", checkpoint.as_path())];
+    if args.checkpoint.as_ref().is_some_and(|c| !crate::files::same_file(c, &args.out)) {
+        outputs.push(("--out", args.out.as_path()));
+    }
+    crate::files::check_distinct(&args.world.files(), &outputs)?;
+    if outputs.len() > 1 && args.out.exists() && !args.overwrite && !args.resume {
+        return Err(Error::invalid(
+            "--out",
+            format!("{} exists: pass --resume to continue its run or --overwrite to replace it", args.out.display()),
+        ));
+    }
     let mut learner = open_learner(args, world_from(&args.world)?, config, &checkpoint)?;
     let interrupted = with_learner!(&mut learner, q => train(args, q, &checkpoint))?;
     if interrupted {
@@ -277,6 +293,10 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
     }
     let config = args.windows.config();
     config.validate()?;
+    let mut inputs: Vec<(&str, &std::path::Path)> = args.table.iter().map(|t| ("TABLE", t.as_path())).collect();
+    inputs.extend(args.ce_policies.iter().map(|p| ("--ce-policy", p.as_path())));
+    let outputs: Vec<(&str, &std::path::Path)> = args.json.iter().map(|j| ("--json", j.as_path())).collect();
+    super::check_outputs(&inputs, &outputs, args.force)?;
     let pool = thread_pool(args.windows.threads)?;
     let seed = args.windows.eval_seed;
     let mut reports = Vec::new();

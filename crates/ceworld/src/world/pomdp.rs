@@ -23,6 +23,11 @@ use crate::world::cassandra::{Options, Pomdp, Values, parse_bytes};
 pub use crate::world::cassandra::MAX_FILE_BYTES;
 /// Most `(s', o)` outcomes of positive probability over all `(s, a)` (memory guard).
 pub const MAX_OUTCOMES: usize = 1 << 26;
+/// Most entries of each dense table a world parses (`T`, A×S×S, and `O`, A×S×O): 2^26, 512 MiB
+/// of `f64` each. A world samples at most [`MAX_OUTCOMES`] outcomes, so a larger model could
+/// only be refused after its tables were built; a few bytes of header (16384 states and
+/// wildcards) are refused at once instead of after gigabytes.
+pub const MAX_DENSE_ENTRIES: usize = 1 << 26;
 
 /// The parameters of a tabular world, as stored in policy files.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -146,7 +151,8 @@ impl PomdpWorld {
                 params.file
             )));
         }
-        let pomdp = parse_bytes(&bytes, &Options::default()).map_err(|mut e| {
+        let options = Options { max_entries: MAX_DENSE_ENTRIES, ..Options::default() };
+        let pomdp = parse_bytes(&bytes, &options).map_err(|mut e| {
             e.file = Some(params.file.clone());
             Error::ModelFormat(e.to_string())
         })?;

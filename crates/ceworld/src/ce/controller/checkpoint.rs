@@ -82,8 +82,9 @@ pub type ControllerCheckpoint = Checkpoint<ControllerSearch>;
 
 impl Resumable for ControllerSearch {
     /// 2: the records' fields renamed as episode CE's (`best`, `elite_threshold`), the
-    /// settings flattened.
-    const VERSION: u64 = 2;
+    /// settings flattened; 3: the digest required, the outputs recorded.
+    const VERSION: u64 = 3;
+    const OLDEST: u64 = 2;
     const FORMAT: &'static str = FORMAT;
     type Config = SearchSettings;
     type Run = SearchState;

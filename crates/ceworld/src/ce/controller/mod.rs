@@ -228,8 +228,11 @@ pub fn optimize_controller_with(
         let interrupted = outcome.stop == StopReason::Interrupted;
         w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
         let (policy, episodes, seed) = (&outcome.policy, config.eval_episodes, config.seed);
-        let rewards =
-            search.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate, interrupted))?;
+        let (rewards, cut) = search.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate))?;
+        if cut {
+            // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
+            outcome.stop = StopReason::Interrupted;
+        }
         let evaluation = Evaluation::from_rewards(&rewards);
         outcome.value = evaluation.mean;
         outcome.evaluation = Some(evaluation);
