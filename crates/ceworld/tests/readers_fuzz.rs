@@ -4,8 +4,12 @@
 //! panic, never another kind of error. `READERS_FUZZ_ITERS` sets the mutations per reader
 //! (default 300), `READERS_FUZZ_SEED` the seed; the counts are printed (`--nocapture`).
 
+#[path = "common/rng.rs"]
+mod rng;
 #[path = "common/temp.rs"]
 mod temp;
+
+use rng::Rng;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
@@ -18,22 +22,6 @@ use ceworld::{
 
 fn temp(name: &str) -> temp::TempPath {
     temp::TempPath::new("ceworld-readers-fuzz", name)
-}
-
-/// xorshift64: a small deterministic generator for the mutations.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
 }
 
 fn iterations() -> usize {
