@@ -84,6 +84,73 @@ fn lay_out(dir: &Path, tiger: &Path, policy: &[u8]) -> Vec<&'static str> {
     ]
 }
 
+/// A command on names drawn from `names`: its arguments, the names it reads, the names it writes.
+fn draw(rng: &mut Rng, names: &[&str]) -> (Vec<String>, Vec<String>, Vec<String>) {
+    let pick = |rng: &mut Rng| names[rng.below(names.len())].to_string();
+    let mut args: Vec<String> = Vec::new();
+    let mut inputs: Vec<String> = Vec::new();
+    let mut outputs: Vec<String> = Vec::new();
+    let option = |args: &mut Vec<String>, name: &str, value: String| {
+        args.push(name.into());
+        args.push(value);
+    };
+    match rng.below(3) {
+        0 => {
+            args.extend(
+                ["optimize", "--case", "1", "--samples", "30", "--max-iterations", "1", "-q"].map(String::from),
+            );
+            if rng.below(2) == 0 {
+                let init = pick(rng);
+                inputs.push(init.clone());
+                option(&mut args, "--init", init);
+            } else {
+                args.extend(["--levels", "2"].map(String::from));
+            }
+        }
+        1 => {
+            let model = pick(rng);
+            inputs.push(model.clone());
+            args.extend(["controller", "--nodes", "2", "--max-iterations", "1", "-q"].map(String::from));
+            option(&mut args, "--pomdp", model);
+        }
+        _ => {
+            let file = pick(rng);
+            inputs.push(file.clone());
+            inputs.push("tiger.pomdp".into());
+            args.extend(["show".to_string(), file]);
+            for name in ["--pg", "--dot", "--json"] {
+                if rng.below(2) == 0 {
+                    let out = pick(rng);
+                    outputs.push(out.clone());
+                    option(&mut args, name, out);
+                }
+            }
+        }
+    }
+    if args[0] != "show" {
+        let out = pick(rng);
+        outputs.push(out.clone());
+        option(&mut args, "--out", out);
+        if rng.below(2) == 0 {
+            let history = pick(rng);
+            outputs.push(history.clone());
+            option(&mut args, "--history", history);
+        }
+        if rng.below(2) == 0 {
+            let checkpoint = pick(rng);
+            outputs.push(checkpoint.clone());
+            option(&mut args, "--checkpoint", checkpoint);
+            if rng.below(2) == 0 {
+                args.push("--resume".into());
+            }
+        }
+    }
+    if rng.below(3) == 0 {
+        args.push("--force".into());
+    }
+    (args, inputs, outputs)
+}
+
 #[test]
 fn commands_on_random_names_never_write_over_an_input_or_each_other() {
     let root = temp::TempPath::new("ceworld-outputs-fuzz", "work");
@@ -102,68 +169,7 @@ fn commands_on_random_names_never_write_over_an_input_or_each_other() {
     let (mut ran, mut refused) = (0, 0);
     for _ in 0..iterations() {
         let names = lay_out(&dir, &tiger, &policy);
-        let pick = |rng: &mut Rng| names[rng.below(names.len())].to_string();
-        let mut args: Vec<String> = Vec::new();
-        let mut inputs: Vec<String> = Vec::new();
-        let mut outputs: Vec<String> = Vec::new();
-        let option = |args: &mut Vec<String>, name: &str, value: String| {
-            args.push(name.into());
-            args.push(value);
-        };
-        match rng.below(3) {
-            0 => {
-                args.extend(
-                    ["optimize", "--case", "1", "--samples", "30", "--max-iterations", "1", "-q"].map(String::from),
-                );
-                if rng.below(2) == 0 {
-                    let init = pick(&mut rng);
-                    inputs.push(init.clone());
-                    option(&mut args, "--init", init);
-                } else {
-                    args.extend(["--levels", "2"].map(String::from));
-                }
-            }
-            1 => {
-                let model = pick(&mut rng);
-                inputs.push(model.clone());
-                args.extend(["controller", "--nodes", "2", "--max-iterations", "1", "-q"].map(String::from));
-                option(&mut args, "--pomdp", model);
-            }
-            _ => {
-                let file = pick(&mut rng);
-                inputs.push(file.clone());
-                inputs.push("tiger.pomdp".into());
-                args.extend(["show".to_string(), file]);
-                for name in ["--pg", "--dot", "--json"] {
-                    if rng.below(2) == 0 {
-                        let out = pick(&mut rng);
-                        outputs.push(out.clone());
-                        option(&mut args, name, out);
-                    }
-                }
-            }
-        }
-        if args[0] != "show" {
-            let out = pick(&mut rng);
-            outputs.push(out.clone());
-            option(&mut args, "--out", out);
-            if rng.below(2) == 0 {
-                let history = pick(&mut rng);
-                outputs.push(history.clone());
-                option(&mut args, "--history", history);
-            }
-            if rng.below(2) == 0 {
-                let checkpoint = pick(&mut rng);
-                outputs.push(checkpoint.clone());
-                option(&mut args, "--checkpoint", checkpoint);
-                if rng.below(2) == 0 {
-                    args.push("--resume".into());
-                }
-            }
-        }
-        if rng.below(3) == 0 {
-            args.push("--force".into());
-        }
+        let (args, inputs, outputs) = draw(&mut rng, &names);
         let before = snapshot(&dir);
         let out = ceworld(&dir, &args);
         let stderr = String::from_utf8_lossy(&out.stderr);
