@@ -270,3 +270,17 @@ def test_backend_ray_without_ray_says_how_to_install_it(monkeypatch: pytest.Monk
     monkeypatch.setitem(sys.modules, "ray", None)
     with pytest.raises(ImportError, match=r"pip install 'cehmm\[ray\]'"):
         cehmm.optimize(Corridor(), backend="ray", **FAST)
+
+
+def test_exact_values_and_graphs_of_a_world_written_in_python_are_refused_by_name() -> None:
+    # Was: TypeError: 'OutsideWorld' object is not an instance of 'World'.
+    from worlds import Corridor
+
+    policy = cehmm.Policy.uniform(Corridor(), [2])
+    for world in (Corridor(), cehmm.PythonWorld(Corridor())):
+        with pytest.raises(cehmm.InvalidArgumentError, match="outside the engine.*needs a tabular world"):
+            policy.evaluate_exact(world)
+        with pytest.raises(cehmm.InvalidArgumentError, match="outside the engine.*needs a tabular world"):
+            policy.graph(world)
+    with pytest.raises(cehmm.InvalidArgumentError, match="target-tracking.*needs a tabular world"):
+        cehmm.Policy.uniform(cehmm.TargetTracking(case=1), [2]).evaluate_exact()

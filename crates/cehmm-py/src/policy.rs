@@ -328,17 +328,13 @@ impl PyPolicy {
     fn evaluate_exact(
         &self,
         py: Python<'_>,
-        world: &PyWorld,
+        world: &Bound<'_, PyAny>,
         horizon: Option<&Bound<'_, PyAny>>,
         infinite: &Bound<'_, PyAny>,
         tolerance: &Bound<'_, PyAny>,
     ) -> PyResult<PyExactValue> {
-        let AnyWorld::Pomdp(world) = &world.world else {
-            return Err(raise(Error::invalid(
-                "world",
-                format!("{} (exact evaluation needs a tabular world, e.g. cehmm.PomdpWorld)", world.world.name()),
-            )));
-        };
+        let world = tabular(world, "exact evaluation")?;
+        let world = &world;
         let (horizon, infinite, tolerance) =
             (optional_count("horizon", horizon)?, flag("infinite", infinite)?, real("tolerance", tolerance)?);
         let policy = &self.file.policy;
@@ -358,7 +354,7 @@ impl PyPolicy {
     fn graph<'py>(
         &self,
         py: Python<'py>,
-        world: &PyWorld,
+        world: &Bound<'py, PyAny>,
         form: &str,
         prune: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
@@ -366,12 +362,7 @@ impl PyPolicy {
         if !(0.0..1.0).contains(&prune) {
             return Err(raise(Error::invalid("prune", format!("{prune} (expected a probability 0 <= p < 1)"))));
         }
-        let AnyWorld::Pomdp(world) = &world.world else {
-            return Err(raise(Error::invalid(
-                "world",
-                format!("{} (a policy graph needs a tabular world, e.g. cehmm.PomdpWorld)", world.world.name()),
-            )));
-        };
+        let world = tabular(world, "a policy graph")?;
         let graph = world.graph(&self.file.policy, prune).or_raise()?;
         let model = &world.tables().pomdp;
         match form {
@@ -385,4 +376,17 @@ impl PyPolicy {
             ))),
         }
     }
+}
+
+/// The tabular world `world` (a `PomdpWorld`), else an error saying that `what` needs one and
+/// what `world` is (an engine world of another kind, or a world that runs outside the engine).
+fn tabular(world: &Bound<'_, PyAny>, what: &str) -> PyResult<ceworld::PomdpWorld> {
+    let shown = match world.extract::<PyRef<'_, PyWorld>>() {
+        Ok(w) => match &w.world {
+            AnyWorld::Pomdp(pomdp) => return Ok(pomdp.clone()),
+            other => other.name().to_string(),
+        },
+        Err(_) => "a world that runs outside the engine (written in Python, or sampled elsewhere)".to_string(),
+    };
+    Err(raise(Error::invalid("world", format!("{shown} ({what} needs a tabular world, e.g. cehmm.PomdpWorld)"))))
 }
