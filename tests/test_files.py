@@ -1,6 +1,7 @@
 """The Python layer writes its files (reports, tables, figures) by the engine's rules: whole or not
 at all, never over what is not a regular file, through symbolic links, safe with concurrent
-writers."""
+writers; and reads a user's files by the engine's bounded read (regular files only, of a stated
+size at most)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from cehmm._files import write_atomic, write_text
+import cehmm
+from cehmm._files import read_bytes, write_atomic, write_text
 
 
 def test_a_file_is_replaced_whole_and_no_temporary_is_left(tmp_path: Path) -> None:
@@ -64,3 +66,19 @@ def test_concurrent_writers_never_mix(tmp_path: Path) -> None:
         t.join()
     assert path.read_text() in texts
     assert all(s in texts for s in seen)
+
+
+def test_reads_go_through_the_engines_bounded_read_of_regular_files(tmp_path: Path) -> None:
+    path = tmp_path / "a.txt"
+    path.write_bytes(b"abc")
+    assert read_bytes(path, 3, "test file") == b"abc" == read_bytes(str(path), 3, "test file")
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid test file: .*a\.txt has 3 bytes \(at most 2 are"):
+        read_bytes(path, 2, "test file")
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid test file: .* is a directory \(expected a file"):
+        read_bytes(tmp_path, 10, "test file")
+    with pytest.raises(FileNotFoundError) as missing:
+        read_bytes(tmp_path / "none.txt", 10, "test file")
+    assert missing.value.filename == str(tmp_path / "none.txt")
+    if os.path.exists("/dev/zero"):
+        with pytest.raises(cehmm.InvalidArgumentError, match="/dev/zero is not a regular file"):
+            read_bytes("/dev/zero", 10, "test file")

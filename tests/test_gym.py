@@ -5,6 +5,8 @@ agents in any loop, scoring there what the engine's evaluation says they score."
 from __future__ import annotations
 
 import math
+import os
+import re
 import warnings
 from pathlib import Path
 
@@ -102,3 +104,36 @@ def test_a_pomdp_environment_scores_what_the_engine_says() -> None:
     assert abs(z) < 4, (returns.mean(), engine)
     env.reset(seed=0)
     assert env.render().startswith("t = 1: state ")
+
+
+def test_a_name_that_is_not_a_str_and_a_file_that_is_not_a_path_say_so() -> None:
+    for name in (3, None, ["target-tracking"]):
+        with pytest.raises(TypeError, match=rf"invalid name: {re.escape(repr(name))} is not a str \(expected a"):
+            gymnasium.make(cehmm.gym.WORLD_ENV_ID, name=name)
+    with pytest.raises(TypeError, match=r"invalid file: 3 is not a path \(expected the path of a \.pomdp file"):
+        gymnasium.make(cehmm.gym.POMDP_ENV_ID, file=3)
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero and FIFOs (a Unix system)")
+def test_a_pomdp_file_that_is_not_a_regular_file_or_too_large_is_refused_at_once(tmp_path: Path) -> None:
+    from test_readers import at_once
+
+    fifo = tmp_path / "fifo.POMDP"
+    os.mkfifo(fifo)
+    zero = tmp_path / "zero.POMDP"
+    zero.symlink_to("/dev/zero")
+    big = tmp_path / "big.POMDP"
+    with open(big, "wb") as f:
+        f.truncate(1 << 34)  # sparse: nothing is written
+    refusals = {
+        Path("/dev/zero"): "is not a regular file",
+        Path("/dev/urandom"): "is not a regular file",
+        zero: "(a link to /dev/zero) is not a regular file",
+        fifo: "is not a regular file",
+        tmp_path: "is a directory",
+        big: f"has {1 << 34} bytes (at most",
+    }
+    for path, said in refusals.items():
+        e = at_once(gymnasium.make, cehmm.gym.POMDP_ENV_ID, file=path, horizon=10, fifo=fifo if path == fifo else None)
+        assert isinstance(e, cehmm.InvalidArgumentError), e
+        assert f"invalid pomdp.file: {path} {said}" in str(e), e

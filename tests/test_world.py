@@ -105,3 +105,7 @@ def test_worlds_compare_hash_and_pickle_by_parameters() -> None:
 def test_from_dict_checks_the_name() -> None:
     with pytest.raises(cehmm.InvalidArgumentError, match="world.name"):
         cehmm.TargetTracking.from_dict({"name": "cart-pole", "case": 1})
+    with pytest.raises(cehmm.InvalidArgumentError, match="world.name: 3 is not a string"):
+        cehmm.World.from_dict({"name": 3})
+    with pytest.raises(cehmm.InvalidArgumentError, match="world.name: missing"):
+        cehmm.World.from_dict({"case": 1})

@@ -32,6 +32,8 @@ __all__ = [
     "WindowEvaluation",
     "OptimizeOutcome",
     "cli",
+    "read_file",
+    "check_distinct",
     "optimize",
     "ControllerOutcome",
     "Agent",
@@ -347,6 +349,10 @@ def controller_exact_values(
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
 def cli(args: Sequence[str | os.PathLike[str]]) -> int: ...
+def read_file(path: str | os.PathLike[str], max_bytes: int, what: str) -> bytes: ...
+def check_distinct(
+    inputs: Sequence[tuple[str, str | os.PathLike[str]]], outputs: Sequence[tuple[str, str | os.PathLike[str]]]
+) -> None: ...
 def optimize(
     world: World | OutsideWorld,
     initial: Policy,

@@ -2,7 +2,8 @@
 the target's folder (created exclusively, so concurrent writers never share one), flushed and
 synced, then renamed over the target, so that a reader sees the old file or the new one, whole.
 A target that exists and is not a regular file (a directory, a device, a pipe) is refused; a
-symbolic link is written through (the file it points to is replaced, the link stays)."""
+symbolic link is written through (the file it points to is replaced, the link stays). Files are
+read by the engine's bounded read (:func:`read_bytes`), as the engine reads its own."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
+
+from . import _core
 
 
 def write_atomic(
@@ -48,3 +51,16 @@ def write_atomic(
 def write_text(path: Path, text: str) -> None:
     """:func:`write_atomic` of ``text``."""
     write_atomic(path, lambda f: f.write(text))
+
+
+def read_bytes(path: str | os.PathLike[str], max_bytes: int, what: str) -> bytes:
+    """The bytes of the regular file ``path``, read by the engine (``ceworld::files::read_limited``):
+    a directory, a device (``/dev/zero``), a FIFO (at once, without waiting for a writer), a link
+    to one, or a file of more than ``max_bytes`` is refused; ``what`` names the file in the error.
+
+    Raises:
+        InvalidArgumentError: not a regular file, or more than ``max_bytes``; the message names
+            ``what``, the path as given (and where its links lead) and the limit.
+        OSError: the file cannot be opened (``FileNotFoundError``, ``PermissionError``).
+    """
+    return _core.read_file(path, max_bytes, what)

@@ -85,6 +85,12 @@ def plot(args: Sequence[str]) -> int:
     options = parser.parse_args(args)
     from pathlib import Path
 
+    try:
+        # The engine's rule: no output is the same file as an input (links followed).
+        _core.check_distinct([("FILE", f) for f in options.files], [("--out", options.out)])
+    except ValueError as e:
+        print(f"cehmm plot: error: {e}", file=sys.stderr)
+        return 2
     if Path(options.out).exists() and not options.force:
         print(f"cehmm plot: error: {options.out} exists (give --force to replace it)", file=sys.stderr)
         return 2

@@ -57,6 +57,11 @@ class WorldEnv(gymnasium.Env[np.int64, np.int64]):
     def __init__(self, name: str, render_mode: str | None = None, **params: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"invalid render_mode: {render_mode!r} (expected one of {self.metadata['render_modes']})")
+        if not isinstance(name, str):
+            raise TypeError(
+                f"invalid name: {name!r} is not a str (expected a world's registered name, e.g. "
+                'name="target-tracking")'
+            )
         self.world = World.from_dict({"name": name, **params})
         self.render_mode = render_mode
         self.observation_space = spaces.Discrete(self.world.n_observations)
@@ -91,6 +96,12 @@ class PomdpEnv(WorldEnv):
     ``discount=``, ``reward=`` as :class:`cehmm.PomdpWorld` takes them)."""
 
     def __init__(self, file: str, render_mode: str | None = None, **params: Any) -> None:
+        if not isinstance(file, (str, bytes, os.PathLike)):
+            raise TypeError(
+                f"invalid file: {file!r} is not a path (expected the path of a .pomdp file: a str, bytes or an "
+                "os.PathLike)"
+            )
+        # The engine reads it (a regular file only, of bounded size: ceworld::files::read_limited).
         super().__init__("pomdp", render_mode=render_mode, file=os.fsdecode(file), **params)
 
 

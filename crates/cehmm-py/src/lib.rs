@@ -19,6 +19,7 @@ mod controller;
 mod convert;
 mod defaults;
 mod errors;
+mod files;
 mod optimize;
 mod outside;
 mod policy;
@@ -43,6 +44,8 @@ mod _core {
         CehmmError, InternalError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError,
         WorldError,
     };
+    #[pymodule_export]
+    use super::files::{check_distinct, read_file};
     #[pymodule_export]
     use super::optimize::{PyOptimizeOutcome, optimize};
     #[pymodule_export]

@@ -384,7 +384,7 @@ fn tabular(world: &Bound<'_, PyAny>, what: &str) -> PyResult<ceworld::PomdpWorld
     let shown = match world.extract::<PyRef<'_, PyWorld>>() {
         Ok(w) => match &w.world {
             AnyWorld::Pomdp(pomdp) => return Ok(pomdp.clone()),
-            other => other.name().to_string(),
+            other @ AnyWorld::TargetTracking(_) => other.name().to_string(),
         },
         Err(_) => "a world that runs outside the engine (written in Python, or sampled elsewhere)".to_string(),
     };

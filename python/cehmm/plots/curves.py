@@ -1,11 +1,10 @@
 """Learning curves: of a run, of several on one axes, of the reproduction's panels, and the
-reproduction's summary bars; histories read back from their files."""
+reproduction's summary bars; histories read back from their files (:mod:`.history`)."""
 
 from __future__ import annotations
 
-import csv
-import json
 import math
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -14,42 +13,21 @@ import numpy as np
 
 from .. import _core
 from ._figure import figure
+from .history import read_history
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
 
-def read_history(path: str | Path) -> dict[str, np.ndarray]:
-    """The history a run saved (``--history FILE.jsonl`` or ``FILE.csv``) as columns, one numpy
-    array per field, as :attr:`cehmm.OptimizeResult.history` has them."""
-    path = Path(path)
-    if path.suffix == ".jsonl":
-        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-    elif path.suffix == ".csv":
-        rows = list(csv.DictReader(path.read_text().splitlines()))
-    else:
-        raise _core.InvalidArgumentError(f"invalid history: {path} (expected a .jsonl or .csv file)")
-    if not rows:
-        raise _core.InvalidArgumentError(f"invalid history: {path} has no record")
-    return {key: np.array([_cell(r.get(key)) for r in rows]) for key in rows[0]}
-
-
-def _cell(value: Any) -> Any:
-    """A CSV cell as its number or flag (JSON values are already)."""
-    if not isinstance(value, str):
-        return value
-    if value in ("true", "false"):
-        return value == "true"
-    try:
-        return float(value)
-    except ValueError:
-        return value
+#: The largest magnitude a curve draws: matplotlib's axis arithmetic overflows near the top of
+#: the float range (a value of 1e308 fails to draw).
+MOST_DRAWN = 1e300
 
 
 def _history_of(run: Any) -> tuple[dict[str, Any], str]:
     """A run's history columns and label: a result, a history dict, or a history file."""
-    if isinstance(run, (str, Path)):
-        return read_history(run), Path(run).stem
+    if isinstance(run, (str, os.PathLike)):
+        return read_history(run), Path(os.fsdecode(run)).stem
     history = getattr(run, "history", run)
     if not isinstance(history, Mapping) or "mean" not in history:
         raise TypeError(
@@ -57,6 +35,26 @@ def _history_of(run: Any) -> tuple[dict[str, Any], str]:
             "dict with 'mean', or a .jsonl/.csv history file)"
         )
     return dict(history), type(run).__name__.removesuffix("Result").lower() or "run"
+
+
+def _drawn(history: Mapping[str, Any], field: str, run: Any, default: Any = None) -> np.ndarray:
+    """A history's ``field`` (``default`` where it has none) as floats that can be drawn, or an
+    error naming the run and the field."""
+    name = f"history file: {os.fsdecode(run)}" if isinstance(run, (str, os.PathLike)) else f"run ({type(run).__name__})"
+    try:
+        values = np.asarray(history[field] if field in history else default, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise _core.InvalidArgumentError(f"invalid {name}: field {field!r} does not hold numbers ({e})") from None
+    if values.ndim != 1:
+        raise _core.InvalidArgumentError(
+            f"invalid {name}: field {field!r} has the shape {values.shape} (expected one value per iteration)"
+        )
+    big = np.abs(values) > MOST_DRAWN
+    if big.any():
+        raise _core.InvalidArgumentError(
+            f"invalid {name}: field {field!r} has {values[big][0]:g} (expected values within ±{MOST_DRAWN:g} to draw)"
+        )
+    return values
 
 
 def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | None = None) -> Figure:
@@ -80,16 +78,16 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
     for k, run in enumerate(runs):
         history, label = _history_of(run)
         label = labels[k] if labels is not None else label
-        mean = np.asarray(history["mean"], dtype=float)
-        xs = np.asarray(history.get(x, np.arange(len(mean))), dtype=float)
+        mean = _drawn(history, "mean", run)
+        xs = _drawn(history, x, run, np.arange(len(mean)))
         color = colors[k % len(colors)]
         # Best so far: the searches record it; for episode CE, the best mean so far.
-        best = np.asarray(history.get("best_so_far", np.maximum.accumulate(mean)), dtype=float)
+        best = _drawn(history, "best_so_far", run, np.fmax.accumulate(mean))
         ax.plot(xs, mean, color=color, linewidth=1.0, label=f"{label}: mean")
         if "elite_threshold" in history:
             ax.plot(
                 xs,
-                history["elite_threshold"],
+                _drawn(history, "elite_threshold", run),
                 color=color,
                 linewidth=0.7,
                 linestyle="--",

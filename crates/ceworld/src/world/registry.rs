@@ -149,8 +149,11 @@ fn described(value: &Value) -> Result<(&str, Map<String, Value>)> {
     let Some(map) = value.as_object() else {
         return Err(Error::invalid("world", format!("{value} (expected an object with a \"name\")")));
     };
-    let Some(name) = map.get("name").and_then(Value::as_str) else {
-        return Err(Error::invalid("world.name", "missing (expected the world's name, e.g. \"target-tracking\")"));
+    let expected = "(expected the world's name, e.g. \"target-tracking\")";
+    let name = match map.get("name") {
+        None => return Err(Error::invalid("world.name", format!("missing {expected}"))),
+        Some(Value::String(name)) => name.as_str(),
+        Some(other) => return Err(Error::invalid("world.name", format!("{other} is not a string {expected}"))),
     };
     let mut params = map.clone();
     params.remove("name");
