@@ -53,6 +53,11 @@ def write_text(path: Path, text: str) -> None:
     write_atomic(path, lambda f: f.write(text))
 
 
+#: The most bytes read of a text file the package's tools take (a preset, records, a list of
+#: sources): 256 MiB.
+MAX_TEXT_BYTES = 256 << 20
+
+
 def read_bytes(path: str | os.PathLike[str], max_bytes: int, what: str) -> bytes:
     """The bytes of the regular file ``path``, read by the engine (``ceworld::files::read_limited``):
     a directory, a device (``/dev/zero``), a FIFO (at once, without waiting for a writer), a link

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .._files import write_text
+from .._files import MAX_TEXT_BYTES, read_bytes, write_text
 from ..reproduce.machine import machine_info, source_commit
 from ..reproduce.records import append_record, read_records
 from ..reproduce.text import _fmt_duration
@@ -137,7 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: no .pomdp file in {args.data_dir} matches {args.files}", file=sys.stderr)
         return 2
     sources = args.data_dir / "SOURCES.md"
-    sarsop = parse_sarsop(sources.read_text()) if sources.exists() else {}
+    sarsop = parse_sarsop(read_bytes(sources, MAX_TEXT_BYTES, "SOURCES.md").decode()) if sources.exists() else {}
     settings = {**config.default_settings(), "time_limit": time_limit}
     flags = ("samples", "rho", "smoothing", "patience", "init", "reward", "seed")
     settings.update({k: getattr(args, k) for k in flags})

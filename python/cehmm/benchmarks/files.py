@@ -11,6 +11,7 @@ from typing import Any
 
 import cehmm
 
+from .._files import MAX_TEXT_BYTES, read_bytes
 from .config import HORIZON_WEIGHT, horizon
 
 #: Files SOURCES.md calls parser and regression inputs only.
@@ -99,7 +100,7 @@ def file_facts(path: Path, sarsop: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """One file's facts: sizes, discount, horizon, values, start, whether it parses, SARSOP's bounds, notes."""
     facts: dict[str, Any] = {"file": path.name, "sarsop": sarsop.get(stem(path.name).lower())}
     try:
-        facts.update(scan_preamble(path.read_text(errors="replace")))
+        facts.update(scan_preamble(read_bytes(path, MAX_TEXT_BYTES, "pomdp file").decode("utf-8", errors="replace")))
         world = cehmm.PomdpWorld.from_file(path, horizon=1)
     except (cehmm.CehmmError, OSError) as e:
         facts.update(parse="refused", error=refusal_text(e, path))

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from .._files import MAX_TEXT_BYTES, read_bytes
 from ..paper_table import ROWS, SETTINGS
 
 
@@ -33,7 +34,7 @@ def load_preset(name: str) -> tuple[str, dict[str, dict[str, Any]]]:
         return name, SETTINGS[name]
     path = Path(name)
     if path.suffix == ".json" and path.is_file():
-        preset = json.loads(path.read_text())
+        preset = json.loads(read_bytes(path, MAX_TEXT_BYTES, "settings file").decode("utf-8", errors="replace"))
         if not isinstance(preset, dict) or not all(isinstance(v, dict) for v in preset.values()):
             raise SystemExit(f'{path}: expected {{"*": {{...}}, "row-id": {{...}}}} of optimize() keywords')
         return path.stem, preset

@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from .._files import MAX_TEXT_BYTES, read_bytes
+
 #: Keys of every JSONL line (one finished job).
 RECORD_KEYS = (
     "row",
@@ -57,15 +59,14 @@ def read_records(path: Path) -> list[dict[str, Any]]:
     records = []
     if not path.exists():
         return records
-    with open(path) as f:
-        for line in f:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                records.append(json.loads(line))
-            except json.JSONDecodeError:
-                continue
+    for line in read_bytes(path, MAX_TEXT_BYTES, "records file").decode("utf-8", errors="replace").splitlines():
+        line = line.strip()
+        if not line:
+            continue
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
     return records
 
 
