@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -13,6 +14,13 @@ import cehmm
 settings.register_profile("ci", max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("long", max_examples=5000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+# A suite started with SIGINT ignored (under nohup, or as a background job of a shell, where
+# Python leaves it ignored) runs as one started from a terminal: SIGINT raises KeyboardInterrupt
+# here, and the processes the tests start get its default (an ignored signal stays ignored across
+# exec, a handler does not), so the tests that send it neither hang nor fail.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 #: Settings of a short optimisation (about a millisecond per iteration).
 SMALL = dict(samples=200, max_iterations=8, eval_episodes=200, progress=False)

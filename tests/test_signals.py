@@ -1,6 +1,11 @@
 """Signals during long runs: Ctrl-C stops them within a step of a world written in Python (a call
 of one run by the engine), the run returning what it had; a second Ctrl-C stops at once; what
-the user's own signal handlers raise comes out unchanged."""
+the user's own signal handlers raise comes out unchanged.
+
+The tests pass where SIGINT is ignored (a suite started under ``nohup`` or as a background job
+of a shell): conftest.py handles it as an interactive Python does, in this process and so in the
+ones they start; each has a time limit (a run a signal fails to stop ends the suite with every
+thread's stack, not in a hang)."""
 
 from __future__ import annotations
 
@@ -19,7 +24,11 @@ from worlds import Slow
 
 import cehmm
 
-pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="SIGALRM timers are POSIX")
+pytestmark = [
+    pytest.mark.skipif(sys.platform == "win32", reason="SIGALRM timers are POSIX"),
+    # A thread's timer: these tests set SIGALRM themselves.
+    pytest.mark.timeout(120, method="thread"),
+]
 
 
 class Deadline(Exception):

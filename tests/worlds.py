@@ -89,3 +89,17 @@ class Shows(gym.Env):
 def reached(observations: np.ndarray, decisions: np.ndarray, rewards: np.ndarray) -> float:
     """A score of a whole episode: 1 if it ever reached a rewarding cell, else 0."""
     return float(rewards.max() > 0)
+
+
+class CoarseCartPole(gym.ObservationWrapper):
+    """Gymnasium's CartPole-v1 (its state a numpy array), each observation cut to 9 cells: the
+    pole's angle and its angular velocity, 3 bins each."""
+
+    def __init__(self) -> None:
+        super().__init__(gym.make("CartPole-v1"))
+        self.observation_space = gym.spaces.Discrete(9)
+
+    def observation(self, observation: np.ndarray) -> int:
+        angle = int(np.digitize(observation[2], [-0.05, 0.05]))
+        turning = int(np.digitize(observation[3], [-0.5, 0.5]))
+        return 3 * angle + turning

@@ -26,6 +26,17 @@ built-in ``OSError`` subclass of its errno (``FileNotFoundError``, ``PermissionE
 
 from importlib.metadata import PackageNotFoundError, version
 
+# The engine hands its tables over as numpy arrays: without numpy its module cannot load (a
+# panic of the compiled module's initialisation, not an error one can read, would follow).
+try:
+    import numpy  # noqa: F401
+except ImportError as e:
+    raise ImportError(
+        f"cehmm needs numpy, which cannot be imported here ({e}): install it with `python -m pip install numpy` "
+        "(or reinstall cehmm with `python -m pip install cehmm`, which brings it)",
+        name="numpy",
+    ) from e
+
 from ._core import (
     ENGINE_VERSION,
     CehmmError,

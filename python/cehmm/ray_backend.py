@@ -10,6 +10,14 @@ controllers, episode numbers, rewards, values and counts cross the network; epis
 draws from the same stream wherever it runs, so the result is the local backend's, bit for bit,
 whatever the number of workers.
 
+The world travels as pickled bytes, unpickled by each worker (once per run): what it unpickles
+is its own, numpy arrays included (an object Ray stores itself comes back with read-only arrays,
+which an environment that resets its state in place cannot write). Joining a cluster given by
+``address`` first checks that its port answers within :data:`CONNECT_TIMEOUT` seconds, and a
+run asking more CPUs per task (``threads``) than any node has is refused before it is sent.
+A task's exception is raised on the driver as itself, the worker's traceback (without Ray's
+colour codes) its ``__cause__``.
+
 Workers run the user's world code: anyone who can submit to the cluster can run code on it
 (README, "Running on a cluster").
 """
@@ -17,6 +25,11 @@ Workers run the user's world code: anyone who can submit to the cluster can run 
 from __future__ import annotations
 
 import json
+import os
+import pickle
+import re
+import socket
+import threading
 import uuid
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -32,6 +45,27 @@ BACKENDS = ("local", "ray")
 #: How often a task killed with its worker process is run again (a task is a pure function of
 #: its arguments: a retry gives the same answer).
 RETRIES = 3
+
+#: The most runs again of a task Ray takes (its ``max_retries`` is a C ``int``).
+MAX_RETRIES = 2**31 - 1
+
+#: How long the port of a cluster given by ``address`` may take to answer (seconds): an
+#: unreachable cluster is refused within this time instead of Ray's own minutes of retries.
+CONNECT_TIMEOUT = 5.0
+
+#: The shapes of ``address`` (Ray's own defaults: the head's GCS on 6379, the Ray client on 10001).
+ADDRESS_FORMS = "'auto', 'local', 'HOST:PORT' (a head's GCS) or 'ray://HOST[:PORT]' (Ray client, port 10001)"
+
+#: Ray's client port, where ``ray://HOST`` names none.
+CLIENT_PORT = 10001
+
+# A host name or IPv4 address, or an IPv6 address in brackets; then a port of 1 to 5 digits.
+_ENDPOINT = re.compile(
+    r"(?:\[(?P<ipv6>[0-9A-Fa-f:.]+)\]|(?P<host>[A-Za-z0-9](?:[A-Za-z0-9._-]*[A-Za-z0-9])?))(?::(?P<port>[0-9]{1,5}))?"
+)
+
+# Ray's colour codes in its exceptions' texts (colorama's: ESC [ ... m).
+_ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
 
 def _ray() -> Any:
@@ -53,23 +87,28 @@ def sampled_world(
     """Where the episodes of ``local`` (``core_world(world, **options)``) are sampled: ``local``
     itself for the local backend, ``world`` sampled on Ray (a ``_core.RemoteWorld``) for
     ``backend="ray"`` or a :class:`RayBackend`."""
+    given = {"workers": workers, "address": address}
+    if isinstance(backend, RayBackend):
+        for name, value in given.items():
+            if value is not None:
+                raise _core.InvalidArgumentError(
+                    f"invalid {name}: {value!r} with a RayBackend (expected it in RayBackend(...))"
+                )
+        return _core.RemoteWorld(backend.bind(world, options), local)
+    if not isinstance(backend, str):
+        raise TypeError(f"invalid backend: {backend!r} (expected one of {list(BACKENDS)} or a RayBackend)")
     if backend == "local":
-        for name, value in (("workers", workers), ("address", address)):
+        for name, value in given.items():
             if value is not None:
                 raise _core.InvalidArgumentError(
                     f"invalid {name}: {value!r} with backend='local' (expected backend='ray')"
                 )
         return local
-    if backend == "ray":
-        backend = RayBackend(workers=workers, address=address)
-    elif not isinstance(backend, RayBackend):
+    if backend != "ray":
         raise _core.InvalidArgumentError(
             f"invalid backend: {backend!r} (expected one of {list(BACKENDS)} or a RayBackend)"
         )
-    elif workers is not None or address is not None:
-        raise _core.InvalidArgumentError(
-            "invalid workers/address: given with a RayBackend (expected them in RayBackend(...))"
-        )
+    backend = RayBackend(workers=workers, address=address)
     return _core.RemoteWorld(backend.bind(world, options), local)
 
 
@@ -79,21 +118,30 @@ class RayBackend:
     Args:
         workers: shards per batch of episodes or controllers (default: the cluster's CPUs
             divided by ``threads``).
-        address: the cluster to join (``"auto"``, ``"ray://host:10001"``); ``None``: the Ray
-            this process already joined, else a new local one of ``workers`` CPUs, bound to
-            loopback, without a dashboard.
-        threads: engine threads (and Ray CPUs) per task.
+        address: the cluster to join (``"auto"``, ``"HOST:PORT"`` of its head,
+            ``"ray://HOST:10001"``, or ``"local"`` for a new one on this machine); ``None``: the
+            Ray this process already joined, else a new local one of ``workers × threads`` CPUs
+            (at most this machine's), bound to loopback (Ray < 2.54; Ray 2.59 and later listen
+            on every interface behind token authentication: README), without a dashboard.
+        threads: engine threads (and Ray CPUs) per task: at most the CPUs of the cluster's
+            largest node.
         retries: runs of a task again after its worker process died.
+
+    Raises:
+        TypeError: an argument of the wrong type (numpy integers are taken for ints).
+        InvalidArgumentError: an argument out of its domain, an ``address`` of none of the
+            shapes above; on first use, a cluster that does not answer within
+            :data:`CONNECT_TIMEOUT` seconds, or ``threads`` more than any of its nodes has.
     """
 
     def __init__(
         self, workers: int | None = None, address: str | None = None, threads: int = 1, retries: int = RETRIES
     ) -> None:
-        for name, value, least in (("workers", workers, 1), ("threads", threads, 1), ("retries", retries, 0)):
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < least):
-                raise _core.InvalidArgumentError(f"invalid {name}: {value!r} (expected an int >= {least})")
-        self.address, self.threads, self.retries = address, threads, retries
-        self._workers = workers
+        self._workers = None if workers is None else _count("workers", workers, 1)
+        self.threads = _count("threads", threads, 1)
+        self.retries = _count("retries", retries, 0, MAX_RETRIES)
+        _endpoint(address)
+        self.address = address
 
     @property
     def workers(self) -> int:
@@ -108,19 +156,130 @@ class RayBackend:
         ray = _ray()
         if not ray.is_initialized():
             if self.address is None:
+                # At most this machine's CPUs (more would only start more worker processes than
+                # it can run: shards beyond them wait their turn, with the same answers).
+                cpus = _machine_cpus()
                 ray.init(
                     address="local",
-                    num_cpus=self._workers * self.threads if self._workers else None,
+                    num_cpus=min(self._workers * self.threads, cpus) if self._workers else None,
                     include_dashboard=False,
                     _node_ip_address="127.0.0.1",
                 )
             else:
-                ray.init(address=self.address)
+                _check_answers(self.address)
+                try:
+                    ray.init(address=self.address)
+                except (ConnectionError, TimeoutError, ValueError) as e:
+                    raise _core.InvalidArgumentError(
+                        f"invalid address: {self.address!r} (Ray could not join it: {_plain(str(e))})"
+                    ) from e
         return ray
 
     def bind(self, world: Any, options: dict[str, Any]) -> Sampler:
         """The sampler of ``world`` (sent to the cluster once, with ``options``)."""
         return Sampler(self, world, options)
+
+    def check_fits(self, ray: Any) -> None:
+        """Refuses ``threads`` more than the CPUs of the cluster's largest node: Ray would hold
+        such a task for ever, waiting for a node that can run it."""
+        nodes = [node for node in ray.nodes() if node.get("Alive", True)]
+        largest = max((float(node.get("Resources", {}).get("CPU", 0.0)) for node in nodes), default=0.0)
+        if self.threads > largest:
+            where = f"the Ray cluster at {self.address!r}" if self.address else "this process's Ray cluster"
+            raise _core.InvalidArgumentError(
+                f"invalid threads: {self.threads} (a task takes {self.threads} CPUs on one node, and the largest "
+                f"node of {where} has {largest:g} CPUs: expected threads <= {largest:g})"
+            )
+
+
+def _count(name: str, value: Any, least: int, most: int | None = None) -> int:
+    """``value`` as an int from ``least`` (to ``most``), or the error naming it."""
+    expected = f"an int >= {least}" if most is None else f"an int from {least} to {most}"
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"invalid {name}: {value!r} (expected {expected})")
+    if value < least or (most is not None and value > most):
+        raise _core.InvalidArgumentError(f"invalid {name}: {value!r} (expected {expected})")
+    return int(value)
+
+
+def _machine_cpus() -> int:
+    """The CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def _endpoint(address: Any) -> tuple[str, int] | None:
+    """The host and port ``address`` names (``None`` for ``None``, ``"auto"`` and ``"local"``),
+    or the error naming it."""
+    if address is None:
+        return None
+    if not isinstance(address, str):
+        raise TypeError(f"invalid address: {address!r} (expected a str: {ADDRESS_FORMS}, or None)")
+    if address in ("auto", "local"):
+        return None
+    client = address.startswith("ray://")
+    found = _ENDPOINT.fullmatch(address[len("ray://") :] if client else address)
+    port = int(found["port"]) if found and found["port"] else (CLIENT_PORT if client else None)
+    if not found or port is None or not 1 <= port <= 65535:
+        raise _core.InvalidArgumentError(f"invalid address: {address!r} (expected {ADDRESS_FORMS})")
+    return found["ipv6"] or found["host"], port
+
+
+def _dialled(address: str) -> tuple[str, int] | None:
+    """Where Ray connects for ``address``: the client's host and port as given; a head's GCS
+    as Ray resolves it ("auto" from the environment, loopback names to this node's address);
+    ``None`` for a new local cluster."""
+    if address == "local" or address.startswith("ray://"):
+        return _endpoint(address)
+    try:
+        from ray._private.services import canonicalize_bootstrap_address
+    except ImportError:  # pragma: no cover - Ray's internals moved: the address as given
+        return _endpoint(address)
+    try:
+        resolved = canonicalize_bootstrap_address(address)
+    except (ConnectionError, ValueError) as e:  # "auto" without a cluster to find
+        raise _core.InvalidArgumentError(f"invalid address: {address!r} ({_plain(str(e))})") from e
+    if resolved is None:
+        return None
+    host, _, port = resolved.rpartition(":")
+    return host.strip("[]"), int(port)
+
+
+def _check_answers(address: str, timeout: float = CONNECT_TIMEOUT) -> None:
+    """Refuses ``address`` unless a TCP connection to the port Ray would use opens within
+    ``timeout`` seconds (name lookup included): Ray itself retries for minutes."""
+    endpoint = _dialled(address)
+    if endpoint is None:
+        return
+    host, port = endpoint
+    failed: list[str] = []
+
+    def connect() -> None:
+        try:
+            socket.create_connection((host, port), timeout=timeout).close()
+        except OSError as e:
+            failed.append(e.strerror or str(e) or type(e).__name__)
+        else:
+            failed.append("")
+
+    # A thread of its own: a name lookup has no timeout of its own.
+    attempt = threading.Thread(target=connect, name="cehmm-connect", daemon=True)
+    attempt.start()
+    attempt.join(timeout)
+    why = failed[0] if failed else f"no answer within {timeout:g} s"
+    if why:
+        shown = f"[{host}]" if ":" in host else host
+        raise _core.InvalidArgumentError(
+            f"invalid address: {address!r} (nothing answers at {shown}:{port}, where Ray connects for it: {why}; "
+            f"expected the address of a running Ray cluster: {ADDRESS_FORMS})"
+        )
+
+
+def _plain(text: str) -> str:
+    """``text`` without terminal colour codes."""
+    return _ANSI.sub("", text)
 
 
 class Sampler:
@@ -128,9 +287,12 @@ class Sampler:
 
     def __init__(self, backend: RayBackend, world: Any, options: dict[str, Any]) -> None:
         ray = backend.ray()
+        backend.check_fits(ray)
         self.backend = backend
-        # Nested in a list, the reference travels as itself: a worker fetches the world once.
-        self._world = [ray.put((world, options))]
+        # Pickled here (cloudpickle: a class of the driver's script travels by value), unpickled
+        # by each worker into arrays of its own; nested in a list, the reference travels as
+        # itself: a worker fetches the world once.
+        self._world = [ray.put(ray.cloudpickle.dumps((world, options)))]
         self._key = uuid.uuid4().hex
         self._task = ray.remote(_shard).options(num_cpus=backend.threads, max_retries=backend.retries)
 
@@ -183,9 +345,16 @@ class Pending:
         return len(ready) == len(self._refs)
 
     def result(self) -> Any:
-        """The combined answers; a task's exception raised as itself, with the worker's traceback."""
+        """The combined answers; a task's exception raised as itself, the worker's traceback its
+        ``__cause__`` (a :class:`RemoteTraceback`)."""
         try:
             return self._combine(self._ray.get(self._refs))
+        except self._ray.exceptions.RayTaskError as error:
+            self.cancel()
+            cause = getattr(error, "cause", None)
+            if not isinstance(cause, BaseException):
+                raise
+            raise cause from RemoteTraceback(_plain(str(error)))
         except BaseException:
             self.cancel()
             raise
@@ -194,6 +363,14 @@ class Pending:
         """Stops every task still running (their worker processes are ended)."""
         for ref in self._refs:
             self._ray.cancel(ref, force=True)
+
+
+class RemoteTraceback(Exception):
+    """Where a task's exception was raised: the worker's traceback, as text (the ``__cause__`` of
+    the exception raised on the driver, as ``concurrent.futures`` does for its processes)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 def _cuts(n: int, parts: int) -> list[tuple[int, int]]:
@@ -219,7 +396,8 @@ def _shard(key: str, world: list[Any], kind: str, policy: str, threads: int, *ar
     if engine is None:
         import ray
 
-        user_world, options = ray.get(world[0])
+        # Unpickled here, not by Ray: the world's arrays are its own, writable.
+        user_world, options = pickle.loads(ray.get(world[0]))
         engine = _WORLDS[key] = core_world(user_world, **options)
         if len(_WORLDS) > 8:
             _WORLDS.pop(next(iter(_WORLDS)))
