@@ -168,7 +168,12 @@ def test_ctrl_c_returns_the_result_so_far() -> None:
         os.kill(child.pid, signal.SIGINT)
         out, err = child.communicate(timeout=60)
     finally:
+        # A child left running (a timeout) is ended and reaped, its pipes closed.
         child.kill()
+        child.wait()
+        for pipe in (child.stdout, child.stderr):
+            if pipe is not None:
+                pipe.close()
     assert child.returncode == 0, err
     assert "interrupted after" in out
 
