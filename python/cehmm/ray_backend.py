@@ -87,22 +87,19 @@ def sampled_world(
     """Where the episodes of ``local`` (``core_world(world, **options)``) are sampled: ``local``
     itself for the local backend, ``world`` sampled on Ray (a ``_core.RemoteWorld``) for
     ``backend="ray"`` or a :class:`RayBackend`."""
-    given = {"workers": workers, "address": address}
-    if isinstance(backend, RayBackend):
-        for name, value in given.items():
+
+    def refuse_given(why: str) -> None:
+        for name, value in (("workers", workers), ("address", address)):
             if value is not None:
-                raise _core.InvalidArgumentError(
-                    f"invalid {name}: {value!r} with a RayBackend (expected it in RayBackend(...))"
-                )
+                raise _core.InvalidArgumentError(f"invalid {name}: {value!r} {why}")
+
+    if isinstance(backend, RayBackend):
+        refuse_given("with a RayBackend (expected it in RayBackend(...))")
         return _core.RemoteWorld(backend.bind(world, options), local)
     if not isinstance(backend, str):
         raise TypeError(f"invalid backend: {backend!r} (expected one of {list(BACKENDS)} or a RayBackend)")
     if backend == "local":
-        for name, value in given.items():
-            if value is not None:
-                raise _core.InvalidArgumentError(
-                    f"invalid {name}: {value!r} with backend='local' (expected backend='ray')"
-                )
+        refuse_given("with backend='local' (expected backend='ray')")
         return local
     if backend != "ray":
         raise _core.InvalidArgumentError(

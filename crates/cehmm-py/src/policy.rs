@@ -333,8 +333,7 @@ impl PyPolicy {
         infinite: &Bound<'_, PyAny>,
         tolerance: &Bound<'_, PyAny>,
     ) -> PyResult<PyExactValue> {
-        let world = tabular(world, "exact evaluation")?;
-        let world = &world;
+        let world = &tabular(world, "exact evaluation")?;
         let (horizon, infinite, tolerance) =
             (optional_count("horizon", horizon)?, flag("infinite", infinite)?, real("tolerance", tolerance)?);
         let policy = &self.file.policy;

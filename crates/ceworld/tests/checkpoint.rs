@@ -154,22 +154,15 @@ fn a_checkpoint_of_the_version_before_digests_resumes_unverified_and_says_so() {
     let path = temp("old.ckpt");
     let w = world();
     let config = CeConfig { max_iterations: Some(6), ..config() };
-    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
-    let mut seen = 0;
-    let stopped = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {
-        seen += 1;
-        if seen == 3 { Flow::Stop } else { Flow::Continue }
-    })
-    .unwrap();
-    assert!(stopped.interrupted());
+    let mut doc = stopped_after(&config, &path, 3);
     assert_eq!(CeCheckpoint::peek(&path).unwrap().unverified, None, "a file of this version is verified");
-    let mut doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&*path).unwrap()).unwrap();
     assert_eq!(doc["version"], 2);
     doc.as_object_mut().unwrap().remove("digest");
     doc["version"] = 1.into();
     std::fs::write(&*path, serde_json::to_vec(&doc).unwrap()).unwrap();
     let warning = CeCheckpoint::peek(&path).unwrap().unverified.expect("an unverified file is named");
     assert!(warning.contains("version 1") && warning.contains("unverified"), "{warning}");
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let resumed =
         optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| Flow::Continue)
             .unwrap();
@@ -180,19 +173,23 @@ fn a_checkpoint_of_the_version_before_digests_resumes_unverified_and_says_so() {
     assert!(e.contains("version 0 (expected 1 to 2)"), "{e}");
 }
 
-/// A checkpoint stopped in the second of two runs, as JSON.
-fn stopped_in_the_second_run(path: &std::path::Path) -> serde_json::Value {
+/// The checkpoint of a run of `config` stopped after `stops` observed iterations, as JSON.
+fn stopped_after(config: &CeConfig, path: &std::path::Path, stops: usize) -> serde_json::Value {
     let w = world();
-    let config = CeConfig { restarts: 2, max_iterations: Some(5), ..config() };
     let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let mut seen = 0;
-    let out = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), &config, Some(&checkpointing), |_| {
+    let out = optimize_with(&w, random_policy(&w, &[4, 3], 1).unwrap(), config, Some(&checkpointing), |_| {
         seen += 1;
-        if seen == 8 { Flow::Stop } else { Flow::Continue }
+        if seen == stops { Flow::Stop } else { Flow::Continue }
     })
     .unwrap();
     assert!(out.interrupted());
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+/// A checkpoint stopped in the second of two runs, as JSON.
+fn stopped_in_the_second_run(path: &std::path::Path) -> serde_json::Value {
+    stopped_after(&CeConfig { restarts: 2, max_iterations: Some(5), ..config() }, path, 8)
 }
 
 #[test]
