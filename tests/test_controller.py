@@ -71,7 +71,9 @@ def test_results_do_not_depend_on_threads_and_restarts_keep_the_best(tiger: cehm
 def test_what_cannot_be_searched_is_refused(tiger: cehmm.PomdpWorld) -> None:
     with pytest.raises(cehmm.InvalidArgumentError, match="exact values need a tabular world"):
         cehmm.optimize_controller(cehmm.TargetTracking(case=1), value="exact", progress=False)
-    with pytest.raises(cehmm.InvalidArgumentError, match="exact values need a cehmm.PomdpWorld"):
+    with pytest.raises(
+        cehmm.InvalidArgumentError, match="exact values need a tabular world: a .pomdp file, a cehmm.PomdpWorld"
+    ):
         cehmm.optimize_controller(TMaze(2), value="exact", progress=False)
     with pytest.raises(cehmm.InvalidArgumentError, match='value: "approximate"'):
         cehmm.optimize_controller(tiger, value="approximate", progress=False)

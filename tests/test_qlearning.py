@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -23,7 +24,7 @@ def learnt(grid5: cehmm.TargetTracking) -> cehmm.QLearner:
     return cehmm.qlearning(grid5, iterations=50_000, seed=1, progress=False)
 
 
-SMALL_WINDOWS = dict(episodes=300, chains=3, burn_in=1000, windows_per_chain=100)
+SMALL_WINDOWS: dict[str, Any] = dict(episodes=300, chains=3, burn_in=1000, windows_per_chain=100)
 
 
 def test_table_shape_and_counters(learnt: cehmm.QLearner) -> None:
@@ -120,10 +121,14 @@ def test_window_evaluation(learnt: cehmm.QLearner) -> None:
     again = cehmm.evaluate_windows(learnt, seed=3, threads=1, **SMALL_WINDOWS)
     assert again == e, "reproducible whatever the thread count"
     assert "worst/mean/best" in repr(e)
-    with pytest.raises(cehmm.InvalidArgumentError):
-        learnt.evaluate_windows(frames=3)
+    with pytest.raises(TypeError, match="frames"):
+        learnt.evaluate_windows(frames=3)  # type: ignore[call-arg]
     with pytest.raises(cehmm.InvalidArgumentError, match="window"):
         learnt.evaluate_windows(window=0)
+    with pytest.raises(cehmm.InvalidArgumentError, match="burn_in"):
+        learnt.evaluate_windows(burn_in=-1)
+    with pytest.raises(TypeError, match="chains"):
+        learnt.evaluate_windows(chains=2.0)  # type: ignore[arg-type]
 
 
 def test_window_evaluation_of_an_hhmm_policy(grid5: cehmm.TargetTracking) -> None:
@@ -145,6 +150,8 @@ def test_lowest_ties_learn_another_table(grid5: cehmm.TargetTracking) -> None:
     assert a == b, "the greedy policy breaks ties as in learning by default"
     with pytest.raises(cehmm.InvalidArgumentError, match="ties"):
         cehmm.qlearning(grid5, iterations=1, ties="first", progress=False)
+    with pytest.raises(TypeError, match="ties"):
+        cehmm.qlearning(grid5, iterations=1, ties=0, progress=False)  # type: ignore[arg-type]
 
 
 def test_a_table_too_big_for_memory_is_refused() -> None:
@@ -164,3 +171,28 @@ def test_bad_arguments(grid5: cehmm.TargetTracking) -> None:
         cehmm.evaluate_windows("not a policy", grid5)  # type: ignore[arg-type]
     with pytest.raises(TypeError):
         cehmm.QLearner(object())  # type: ignore[arg-type]
+
+
+def test_the_core_takes_the_settings_by_their_names(grid5: cehmm.TargetTracking, learnt: cehmm.QLearner) -> None:
+    # The bindings set each config by name (ceworld::settings), the names of Q_DEFAULTS and
+    # WINDOW_DEFAULTS; an unknown name is refused with the names there are.
+    from cehmm import _core
+    from cehmm.world import core_world
+
+    world = core_world(grid5)
+    settings = {k: v for k, v in _core.Q_DEFAULTS.items() if k != "checkpoint_every"}
+    learner = _core.QLearner(world, dict(settings, seed=4, ties="lowest"))
+    assert (learner.gamma, learner.alpha, learner.seed, learner.ties) == (0.99, 0.1, 4, "lowest")
+    with pytest.raises(cehmm.InvalidArgumentError, match=r'invalid setting: "epsilon" \(expected one of alpha, gamma'):
+        _core.QLearner(world, {"epsilon": 0.1})
+    with pytest.raises(TypeError, match="gamma"):
+        _core.QLearner(world, {"gamma": "0.9"})
+    with pytest.raises(cehmm.InvalidArgumentError, match="seed"):
+        _core.QLearner(world, {"seed": 2**64})
+    small = dict(_core.WINDOW_DEFAULTS, **SMALL_WINDOWS)
+    e = learnt._core.evaluate_windows(world, small, seed=3, threads=None, reference=69.0, ties=None)
+    assert e == learnt.evaluate_windows(seed=3, **SMALL_WINDOWS)
+    policy = cehmm.Policy.random(grid5, [16], seed=2)
+    expected = r'invalid setting: "frames" \(expected one of burn_in, chains'
+    with pytest.raises(cehmm.InvalidArgumentError, match=expected):
+        _core.evaluate_policy_windows(policy._core, world, {"frames": 3}, seed=0, threads=None, reference=69.0)

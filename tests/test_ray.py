@@ -151,8 +151,17 @@ def test_the_controller_search_on_exact_values_on_ray_is_the_local_one(cluster):
     assert remote.kind == local.kind == "exact"
     assert remote.policy.to_json() == local.policy.to_json()
     assert remote.value == local.value and list(remote.history["mean"]) == list(local.history["mean"])
-    with pytest.raises(cehmm.InvalidArgumentError, match="not tabular"):
+    with pytest.raises(cehmm.InvalidArgumentError, match="exact values need a tabular world"):
         cehmm.optimize_controller(Corridor(), value="exact", backend="ray", **settings)
+
+
+def test_an_optimiser_given_by_its_step_runs_on_ray_as_here(cluster):
+    # Registered once (ceworld::run::OPTIMISERS), the random search gets the backend for free.
+    settings = dict(nodes=3, samples=30, episodes=10, max_iterations=3, eval_episodes=200, progress=False)
+    local = cehmm.run("random-search", Corridor(), **settings)
+    remote = cehmm.run("random-search", Corridor(), backend="ray", workers=2, **settings)
+    assert remote.policy.to_json() == local.policy.to_json()
+    assert list(remote.history["mean"]) == list(local.history["mean"])
 
 
 def test_a_worker_killed_mid_run_changes_nothing(cluster, tmp_path: Path):

@@ -57,6 +57,7 @@ from .policy import Policy
 from .pomdp import PomdpWorld
 from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
 from .ray_backend import RayBackend
+from .stepped import RunResult, run
 from .tracking import TargetTracking
 from .world import World
 
@@ -81,6 +82,7 @@ __all__ = [
     "PythonWorld",
     "QLearner",
     "RayBackend",
+    "RunResult",
     "Rollout",
     "TargetTracking",
     "WindowEvaluation",
@@ -91,4 +93,5 @@ __all__ = [
     "optimize",
     "optimize_controller",
     "qlearning",
+    "run",
 ]

@@ -12,6 +12,8 @@ from typing import Any, TypedDict, final
 import numpy as np
 import numpy.typing as npt
 
+from .backend import Sampler
+
 __all__ = [
     "CehmmError",
     "InvalidArgumentError",
@@ -30,20 +32,22 @@ __all__ = [
     "Evaluation",
     "Rollout",
     "WindowEvaluation",
-    "OptimizeOutcome",
     "cli",
     "read_file",
     "check_distinct",
     "optimize",
-    "ControllerOutcome",
     "Agent",
     "Session",
     "optimize_controller",
+    "run",
+    "OPTIMISERS",
     "QLearner",
     "evaluate_policy_windows",
     "epsilon",
     "ENGINE_VERSION",
     "GRAPH_PRUNE",
+    "BACKEND_METHODS",
+    "PENDING_METHODS",
     "CE_DEFAULTS",
     "CONTROLLER_DEFAULTS",
     "INIT_CHOICES",
@@ -59,6 +63,8 @@ __all__ = [
 
 ENGINE_VERSION: str
 GRAPH_PRUNE: float
+BACKEND_METHODS: list[str]  # what a RemoteWorld asks of its sampler (cehmm.backend.Sampler)
+PENDING_METHODS: list[str]  # what it asks of a pending answer (cehmm.backend.Pending)
 #: ``CeConfig::default()``: samples, rho, smoothing, patience, seed, eval_episodes, memory_update, restarts.
 CE_DEFAULTS: dict[str, Any]
 CONTROLLER_DEFAULTS: dict[str, Any]
@@ -68,11 +74,14 @@ TIES: list[str]
 DEFAULT_LEVELS: list[int]
 WEAK_PATIENCE: int
 STRONG_PATIENCE: int
-#: ``WindowConfig::default()``: window, episodes, chains, burn_in, windows_per_chain.
+#: ``WindowConfig::default()`` as it serialises: window, episodes, chains, burn_in, windows_per_chain.
 WINDOW_DEFAULTS: dict[str, int]
-#: ``QConfig::default()`` and the checkpoint interval: gamma, alpha, ties, checkpoint_every.
+#: ``QConfig::default()`` as it serialises (gamma, alpha, seed, ties) and the checkpoint interval,
+#: checkpoint_every.
 Q_DEFAULTS: dict[str, Any]
 PAPER_REFERENCE: float
+#: Every optimiser given by its step (``ceworld::run::OPTIMISERS``): name -> its settings with their defaults.
+OPTIMISERS: dict[str, dict[str, Any]]
 
 class CehmmError(ValueError):
     """Base class of the errors raised by cehmm."""
@@ -154,9 +163,9 @@ class World:
 class RemoteWorld:
     """A world whose episodes a backend samples elsewhere (``cehmm.ray_backend``)."""
 
-    def __new__(cls, backend: Any, world: World | OutsideWorld) -> RemoteWorld: ...
+    def __new__(cls, backend: Sampler, world: World | OutsideWorld) -> RemoteWorld: ...
     @property
-    def backend(self) -> Any: ...
+    def backend(self) -> Sampler: ...
     @property
     def description(self) -> dict[str, Any]: ...
 
@@ -233,6 +242,7 @@ class Rollout:
     def reward(self) -> float: ...
     def __len__(self) -> int: ...
     def column(self, label: str) -> npt.NDArray[np.int64]: ...
+    # Attached by cehmm.policy (the compiled module does not call into cehmm.plots).
     def plot(self, **kwargs: Any) -> Any: ...
     def animate(self, path: str | os.PathLike[str], **kwargs: Any) -> Any: ...
 
@@ -310,28 +320,18 @@ class Policy:
     def graph(self, world: World | OutsideWorld, form: str, prune: float) -> Any: ...
     def most_likely(self) -> Policy: ...
 
-@final
-class OptimizeOutcome:
+class _OptimizeOutcome(TypedDict):
     """``ceworld::CeResult`` with its best and last policies (wrapped by ``cehmm.OptimizeResult``)."""
 
-    @property
-    def policy(self) -> Policy: ...
-    @property
-    def last_policy(self) -> Policy: ...
-    @property
-    def history(self) -> HistoryDict: ...
-    @property
-    def evaluation(self) -> Evaluation: ...
-    @property
-    def stop_reason(self) -> str: ...
-    @property
-    def interrupted(self) -> bool: ...
-    @property
-    def best_iteration(self) -> int: ...
-    @property
-    def iterations(self) -> int: ...
-    @property
-    def seconds(self) -> float: ...
+    policy: Policy
+    last_policy: Policy
+    history: HistoryDict
+    evaluation: Evaluation
+    stop_reason: str
+    interrupted: bool
+    best_iteration: int
+    iterations: int
+    seconds: float
 
 def controller_values(
     world: World | OutsideWorld,
@@ -362,34 +362,22 @@ def optimize(
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,
-) -> OptimizeOutcome: ...
+) -> _OptimizeOutcome: ...
 
-@final
-class ControllerOutcome:
+class _ControllerOutcome(TypedDict):
     """``ceworld::ce::controller::ControllerOutcome`` with its policy file (wrapped by ``cehmm.ControllerResult``)."""
 
-    @property
-    def policy(self) -> Policy: ...
-    @property
-    def value(self) -> float: ...
-    @property
-    def kind(self) -> str: ...
-    @property
-    def evaluation(self) -> Evaluation | None: ...
-    @property
-    def history(self) -> ControllerHistoryDict: ...
-    @property
-    def stop_reason(self) -> str: ...
-    @property
-    def interrupted(self) -> bool: ...
-    @property
-    def best_iteration(self) -> int: ...
-    @property
-    def restart(self) -> int: ...
-    @property
-    def run_values(self) -> list[float]: ...
-    @property
-    def seconds(self) -> float: ...
+    policy: Policy
+    value: float
+    kind: str
+    evaluation: Evaluation | None
+    history: ControllerHistoryDict
+    stop_reason: str
+    interrupted: bool
+    best_iteration: int
+    restart: int
+    run_values: list[float]
+    seconds: float
 
 def optimize_controller(
     world: World | OutsideWorld,
@@ -400,7 +388,27 @@ def optimize_controller(
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,
-) -> ControllerOutcome: ...
+) -> _ControllerOutcome: ...
+
+class _RunOutcome(TypedDict):
+    """``ceworld::ce::stepped::SteppedOutcome`` with its policy file (wrapped by ``cehmm.RunResult``)."""
+
+    policy: Policy
+    history: HistoryDict
+    evaluation: Evaluation
+    stop_reason: str
+    seconds: float
+
+def run(
+    name: str,
+    world: World | OutsideWorld | RemoteWorld,
+    settings: Mapping[str, object],
+    *,
+    progress: bool,
+    checkpoint: str | os.PathLike[str] | None = None,
+    checkpoint_every: float | None = None,
+    resume: bool | None = None,
+) -> _RunOutcome: ...
 
 @final
 class Agent:
@@ -430,11 +438,11 @@ def epsilon(t: int) -> float: ...
 def evaluate_policy_windows(
     policy: Policy,
     world: World,
+    settings: Mapping[str, object],
     *,
     seed: int,
     threads: int | None,
     reference: float,
-    **settings: int,
 ) -> WindowEvaluation: ...
 
 @final
@@ -444,13 +452,11 @@ class QLearner:
     ``QLearner(...)``, ``load`` and ``resume`` raise ``MemoryError`` when the table would not fit in memory.
     """
 
-    def __new__(cls, world: World, *, gamma: float, alpha: float, seed: int, ties: str) -> QLearner: ...
+    def __new__(cls, world: World, settings: Mapping[str, object]) -> QLearner: ...
     @staticmethod
     def load(path: str | os.PathLike[str]) -> QLearner: ...
     @staticmethod
-    def resume(
-        path: str | os.PathLike[str], world: World, *, gamma: float, alpha: float, seed: int, ties: str
-    ) -> QLearner: ...
+    def resume(path: str | os.PathLike[str], world: World, settings: Mapping[str, object]) -> QLearner: ...
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = False) -> None: ...
     def train(
         self,
@@ -463,12 +469,12 @@ class QLearner:
     def evaluate_windows(
         self,
         world: World,
+        settings: Mapping[str, object],
         *,
         seed: int,
         threads: int | None,
         reference: float,
         ties: str | None,
-        **settings: int,
     ) -> WindowEvaluation: ...
     @property
     def updates(self) -> int: ...

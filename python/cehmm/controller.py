@@ -11,10 +11,11 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from .backend import Backend
 from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
-from .ray_backend import RayBackend, sampled_world
+from .ray_backend import sampled_world
 from .world import core_world
 
 #: The engine's defaults (one home: ``ceworld::ControllerConfig::default()``).
@@ -113,7 +114,7 @@ def optimize_controller(
     score: Score | None = None,
     discount: float | None = None,
     horizon: int | None = None,
-    backend: str | RayBackend = "local",
+    backend: str | Backend = "local",
     workers: int | None = None,
     address: str | None = None,
 ) -> ControllerResult:
@@ -198,7 +199,7 @@ def optimize_controller(
         horizon: for a world written in Python, the most steps of an episode (default: its own).
         backend: ``"local"``, ``"ray"`` (every iteration's controllers valued in shards on a Ray
             cluster, exact or sampled, the same result bit for bit) or a
-            :class:`~cehmm.RayBackend` (see :func:`optimize`).
+            :class:`~cehmm.RayBackend` (any :class:`cehmm.backend.Backend`; see :func:`optimize`).
         workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
         address: with ``backend="ray"``: the cluster to join.
 
@@ -239,8 +240,10 @@ def optimize_controller(
                 growths=growths,
                 template_weight=template_weight,
                 target=target,
-                # None: the default of the kind of value used.
-                **{k: v for k, v in (("samples", samples), ("rho", rho), ("template", template)) if v is not None},
+                # None: the default of the kind of value used (the engine's to resolve).
+                samples=samples,
+                rho=rho,
+                template=template,
             ),
             value=value,
             progress=progress,
@@ -248,16 +251,4 @@ def optimize_controller(
             checkpoint_every=checkpoint_every,
             resume=resume,
         )
-    return ControllerResult(
-        policy=Policy(raw.policy),
-        value=raw.value,
-        kind=raw.kind,
-        evaluation=raw.evaluation,
-        history=dict(raw.history),
-        stop_reason=raw.stop_reason,
-        interrupted=raw.interrupted,
-        best_iteration=raw.best_iteration,
-        restart=raw.restart,
-        run_values=list(raw.run_values),
-        seconds=raw.seconds,
-    )
+    return ControllerResult(**{**raw, "policy": Policy(raw["policy"]), "run_values": list(raw["run_values"])})

@@ -14,9 +14,10 @@ import numpy as np
 
 from . import _core
 from ._core import Evaluation
+from .backend import Backend
 from .outside import Score
 from .policy import Policy
-from .ray_backend import RayBackend, sampled_world
+from .ray_backend import sampled_world
 from .world import core_world
 
 #: What :func:`optimize` starts from.
@@ -62,18 +63,8 @@ class OptimizeResult:
     seconds: float
 
     @classmethod
-    def _from_core(cls, core: _core.OptimizeOutcome) -> OptimizeResult:
-        return cls(
-            policy=Policy(core.policy),
-            last_policy=Policy(core.last_policy),
-            history=dict(core.history),
-            evaluation=core.evaluation,
-            stop_reason=core.stop_reason,
-            interrupted=core.interrupted,
-            best_iteration=core.best_iteration,
-            iterations=core.iterations,
-            seconds=core.seconds,
-        )
+    def _from_core(cls, core: _core._OptimizeOutcome) -> OptimizeResult:
+        return cls(**{**core, "policy": Policy(core["policy"]), "last_policy": Policy(core["last_policy"])})
 
     def plot(self, x: str = "iteration") -> Any:
         """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""
@@ -120,7 +111,7 @@ def optimize(
     score: Score | None = None,
     discount: float | None = None,
     horizon: int | None = None,
-    backend: str | RayBackend = "local",
+    backend: str | Backend = "local",
     workers: int | None = None,
     address: str | None = None,
 ) -> OptimizeResult:
@@ -182,7 +173,7 @@ def optimize(
         horizon: for a world written in Python, the most steps of an episode (default: its own).
         backend: ``"local"`` (this process's threads), ``"ray"`` (shards of every iteration's
             episodes sampled on a Ray cluster, the same result bit for bit; needs
-            ``memory_update="sampled"``) or a :class:`~cehmm.RayBackend`.
+            ``memory_update="sampled"``) or a :class:`~cehmm.RayBackend` (any :class:`cehmm.backend.Backend`).
         workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
         address: with ``backend="ray"``: the cluster to join (default: the one this process
             joined, else a new local one).

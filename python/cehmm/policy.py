@@ -10,7 +10,8 @@ import numpy as np
 
 from . import _core
 from ._core import Agent, Evaluation, ExactValue, InvalidArgumentError, PolicyFormatError, Rollout
-from .ray_backend import RayBackend, sampled_world
+from .backend import Backend
+from .ray_backend import sampled_world
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -185,7 +186,7 @@ class Policy:
         episodes: int = 10000,
         seed: int = 0,
         threads: int | None = None,
-        backend: str | RayBackend = "local",
+        backend: str | Backend = "local",
         workers: int | None = None,
         address: str | None = None,
     ) -> Evaluation:
@@ -318,3 +319,24 @@ def _array(tables: Mapping[str, Any], key: str, prefix: str = "") -> np.ndarray:
         return np.ascontiguousarray(tables[key], dtype=np.float64)
     except (TypeError, ValueError) as e:
         raise PolicyFormatError(f"{prefix}{key} is not an array of numbers ({e})") from None
+
+
+# A recorded episode's drawing methods belong to the Python layer: the compiled module never
+# calls up into `cehmm.plots` (docs/architecture.md), so they are attached to its class here.
+def _plot_rollout(self: Rollout, **kwargs: Any) -> Any:
+    """The episode drawn (:func:`cehmm.plots.rollout`, keywords passed on): a matplotlib figure."""
+    from .plots import rollout
+
+    return rollout(self, **kwargs)
+
+
+def _animate_rollout(self: Rollout, path: str | os.PathLike[str], **kwargs: Any) -> Any:
+    """The episode as an animation saved to ``path`` (:func:`cehmm.plots.animation`, keywords
+    passed on)."""
+    from .plots import animation
+
+    return animation(self, path, **kwargs)
+
+
+Rollout.plot = _plot_rollout  # type: ignore[method-assign]
+Rollout.animate = _animate_rollout  # type: ignore[method-assign]

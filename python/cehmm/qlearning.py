@@ -30,8 +30,9 @@ PAPER_REFERENCE: float = _core.PAPER_REFERENCE
 #: Window settings of :meth:`QLearner.evaluate_windows` and :func:`evaluate_windows` (the engine's).
 WINDOW_DEFAULTS: dict[str, int] = dict(_core.WINDOW_DEFAULTS)
 
-#: Q-learning settings (the engine's: the paper's γ and α, random ties, checkpoints every 600 s).
-Q_DEFAULTS = _core.Q_DEFAULTS
+#: Q-learning settings (the engine's ``QConfig``: the paper's γ and α, seed 0, random ties; and
+#: checkpoints every 600 s).
+Q_DEFAULTS: dict[str, Any] = dict(_core.Q_DEFAULTS)
 
 #: How greedy ties may be broken (the engine's ``ceworld::Ties``).
 TIES = tuple(_core.TIES)
@@ -82,7 +83,7 @@ class QLearner:
         world: World,
         gamma: float = Q_DEFAULTS["gamma"],
         alpha: float = Q_DEFAULTS["alpha"],
-        seed: int = 0,
+        seed: int = Q_DEFAULTS["seed"],
         ties: str = Q_DEFAULTS["ties"],
     ) -> QLearner:
         """A fresh run with a zero table, not trained yet.
@@ -92,7 +93,7 @@ class QLearner:
             InvalidArgumentError: ``gamma`` outside ``[0, 1)``, ``alpha`` outside ``(0, 1]``, or
                 ``ties`` neither ``"random"`` nor ``"lowest"``.
         """
-        return cls(_core.QLearner(core_world(world), gamma=gamma, alpha=alpha, seed=seed, ties=ties))
+        return cls(_core.QLearner(core_world(world), dict(gamma=gamma, alpha=alpha, seed=seed, ties=ties)))
 
     @classmethod
     def load(cls, path: PathLike) -> QLearner:
@@ -135,7 +136,11 @@ class QLearner:
         threads: int | None = None,
         reference: float = PAPER_REFERENCE,
         ties: str | None = None,
-        **windows: int,
+        window: int = WINDOW_DEFAULTS["window"],
+        episodes: int = WINDOW_DEFAULTS["episodes"],
+        chains: int = WINDOW_DEFAULTS["chains"],
+        burn_in: int = WINDOW_DEFAULTS["burn_in"],
+        windows_per_chain: int = WINDOW_DEFAULTS["windows_per_chain"],
     ) -> WindowEvaluation:
         """The greedy policy's reward on windows, as the paper evaluates it.
 
@@ -145,17 +150,22 @@ class QLearner:
             threads: worker threads (default: one per core).
             ties: ``"random"`` or ``"lowest"`` (default: as in learning, :attr:`ties`).
             reference: the reward counted as 100 % (the paper: 69).
-            **windows: ``window`` (steps per window, 100), ``episodes`` (windows from the initial
-                state, 10,000), ``chains`` (continuing runs, 16), ``burn_in`` (steps before the
-                first window of each run, 100,000), ``windows_per_chain`` (10,000).
+            window: steps per window (the paper: 100).
+            episodes: (a) windows from the initial state, one per fresh start.
+            chains: (b) independent continuing runs, each from a fresh start.
+            burn_in: (b) steps each continuing run makes before its first window.
+            windows_per_chain: (b) consecutive windows per continuing run after the burn-in.
         """
+        settings = dict(
+            window=window, episodes=episodes, chains=chains, burn_in=burn_in, windows_per_chain=windows_per_chain
+        )
         return self._core.evaluate_windows(
             core_world(self.world if world is None else world),
+            settings,
             seed=seed,
             threads=threads,
             reference=reference,
             ties=ties,
-            **windows,
         )
 
     @property
@@ -264,7 +274,7 @@ def qlearning(
     world: World,
     iterations: int = 10**9,
     *,
-    seed: int = 0,
+    seed: int = Q_DEFAULTS["seed"],
     gamma: float = Q_DEFAULTS["gamma"],
     alpha: float = Q_DEFAULTS["alpha"],
     ties: str = Q_DEFAULTS["ties"],
@@ -297,9 +307,9 @@ def qlearning(
     """
     settings = dict(gamma=gamma, alpha=alpha, seed=seed, ties=ties)
     if resume and checkpoint is not None and os.path.exists(checkpoint):
-        learner = QLearner(_core.QLearner.resume(os.fspath(checkpoint), core_world(world), **settings))
+        learner = QLearner(_core.QLearner.resume(os.fspath(checkpoint), core_world(world), settings))
     else:
-        learner = QLearner.new(world, **settings)
+        learner = QLearner(_core.QLearner(core_world(world), settings))
     return learner.train(iterations, checkpoint=checkpoint, checkpoint_every=checkpoint_every, progress=progress)
 
 
@@ -310,18 +320,32 @@ def evaluate_windows(
     seed: int = 0,
     threads: int | None = None,
     reference: float = PAPER_REFERENCE,
-    **windows: int,
+    window: int = WINDOW_DEFAULTS["window"],
+    episodes: int = WINDOW_DEFAULTS["episodes"],
+    chains: int = WINDOW_DEFAULTS["chains"],
+    burn_in: int = WINDOW_DEFAULTS["burn_in"],
+    windows_per_chain: int = WINDOW_DEFAULTS["windows_per_chain"],
 ) -> WindowEvaluation:
     """Any policy — an HHMM :class:`Policy` (run continuously: memory carried, start tables only at
     the very first step) or a :class:`QLearner`'s greedy policy — on the paper's windows; see
     :meth:`QLearner.evaluate_windows` for the arguments.
     """
+    settings = dict(
+        window=window, episodes=episodes, chains=chains, burn_in=burn_in, windows_per_chain=windows_per_chain
+    )
     if isinstance(policy, QLearner):
-        return policy.evaluate_windows(world, seed=seed, threads=threads, reference=reference, **windows)
+        return policy._core.evaluate_windows(
+            core_world(policy.world if world is None else world),
+            settings,
+            seed=seed,
+            threads=threads,
+            reference=reference,
+            ties=None,
+        )
     if not isinstance(policy, Policy):
         raise TypeError(f"invalid policy: {policy!r} (expected a cehmm.Policy or a cehmm.QLearner)")
     if world is None:
         world = World.from_dict(policy.world)
     return _core.evaluate_policy_windows(
-        policy._core, core_world(world), seed=seed, threads=threads, reference=reference, **windows
+        policy._core, core_world(world), settings, seed=seed, threads=threads, reference=reference
     )

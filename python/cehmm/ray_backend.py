@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
+from .backend import Backend
 from .world import core_world
 
 BACKENDS = ("local", "ray")
@@ -80,24 +81,27 @@ def sampled_world(
     local: Any,
     world: Any,
     options: dict[str, Any],
-    backend: str | RayBackend = "local",
+    backend: str | Backend = "local",
     workers: int | None = None,
     address: str | None = None,
 ) -> Any:
     """Where the episodes of ``local`` (``core_world(world, **options)``) are sampled: ``local``
     itself for the local backend, ``world`` sampled on Ray (a ``_core.RemoteWorld``) for
-    ``backend="ray"`` or a :class:`RayBackend`."""
+    ``backend="ray"``, or by ``backend`` itself (a :class:`RayBackend` or any
+    :class:`cehmm.backend.Backend`)."""
 
     def refuse_given(why: str) -> None:
         for name, value in (("workers", workers), ("address", address)):
             if value is not None:
                 raise _core.InvalidArgumentError(f"invalid {name}: {value!r} {why}")
 
-    if isinstance(backend, RayBackend):
-        refuse_given("with a RayBackend (expected it in RayBackend(...))")
+    if isinstance(backend, Backend):
+        refuse_given(f"with a {type(backend).__name__} (expected it in the backend's own settings)")
         return _core.RemoteWorld(backend.bind(world, options), local)
     if not isinstance(backend, str):
-        raise TypeError(f"invalid backend: {backend!r} (expected one of {list(BACKENDS)} or a RayBackend)")
+        raise TypeError(
+            f"invalid backend: {backend!r} (expected one of {list(BACKENDS)}, a RayBackend or a cehmm.backend.Backend)"
+        )
     if backend == "local":
         refuse_given("with backend='local' (expected backend='ray')")
         return local
@@ -172,9 +176,9 @@ class RayBackend:
                     ) from e
         return ray
 
-    def bind(self, world: Any, options: dict[str, Any]) -> Sampler:
+    def bind(self, world: Any, options: dict[str, Any]) -> RaySampler:
         """The sampler of ``world`` (sent to the cluster once, with ``options``)."""
-        return Sampler(self, world, options)
+        return RaySampler(self, world, options)
 
     def check_fits(self, ray: Any) -> None:
         """Refuses ``threads`` more than the CPUs of the cluster's largest node: Ray would hold
@@ -279,8 +283,8 @@ def _plain(text: str) -> str:
     return _ANSI.sub("", text)
 
 
-class Sampler:
-    """The backend of one world: what ``_core.RemoteWorld`` asks (see crates/cehmm-py/src/remote.rs)."""
+class RaySampler:
+    """The episodes of one world on Ray: a :class:`cehmm.backend.Sampler`."""
 
     def __init__(self, backend: RayBackend, world: Any, options: dict[str, Any]) -> None:
         ray = backend.ray()
@@ -293,25 +297,25 @@ class Sampler:
         self._key = uuid.uuid4().hex
         self._task = ray.remote(_shard).options(num_cpus=backend.threads, max_retries=backend.retries)
 
-    def _submit(self, kind: str, policy: str, shards: Sequence[tuple[Any, ...]], combine: Combine) -> Pending:
+    def _submit(self, kind: str, policy: str, shards: Sequence[tuple[Any, ...]], combine: Combine) -> RayPending:
         ray = self.backend.ray()
         # Put once, read by every shard (controllers travel in their shards instead).
         text = ray.put(policy) if policy else policy
         threads = self.backend.threads
         refs = [self._task.remote(self._key, self._world, kind, text, threads, *shard) for shard in shards]
-        return Pending(ray, refs, combine)
+        return RayPending(ray, refs, combine)
 
-    def rewards(self, policy: str, seed: int, purpose: str, iteration: int, first: int, n: int) -> Pending:
+    def rewards(self, policy: str, seed: int, purpose: str, iteration: int, first: int, n: int) -> RayPending:
         """Rewards of episodes ``first..first + n`` of ``(seed, purpose, iteration)`` under ``policy``."""
         shards = [(seed, purpose, iteration, first + a, b - a) for a, b in _cuts(n, self.backend.workers)]
         return self._submit("rewards", policy, shards, np.concatenate)
 
-    def counts(self, policy: str, seed: int, iteration: int, episodes: npt.NDArray[np.uint64]) -> Pending:
+    def counts(self, policy: str, seed: int, iteration: int, episodes: npt.NDArray[np.uint64]) -> RayPending:
         """The sampled counts of ``episodes`` of iteration ``iteration`` under ``policy``."""
         shards = [(seed, iteration, episodes[a:b].tolist()) for a, b in _cuts(len(episodes), self.backend.workers)]
         return self._submit("counts", policy, shards, _sum_counts)
 
-    def controller_values(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Pending:
+    def controller_values(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> RayPending:
         """Values of episodes ``0..episodes`` of each controller, controller by controller."""
         laws = json.loads(controllers)
         shards = [
@@ -320,7 +324,7 @@ class Sampler:
         ]
         return self._submit("controllers", "", shards, np.concatenate)
 
-    def exact_values(self, controllers: str, tolerance: float) -> Pending:
+    def exact_values(self, controllers: str, tolerance: float) -> RayPending:
         """Exact values of each controller (a tabular world), to ``tolerance``."""
         laws = json.loads(controllers)
         shards = [(json.dumps(laws[a:b]), tolerance) for a, b in _cuts(len(laws), self.backend.workers)]
@@ -330,8 +334,9 @@ class Sampler:
 Combine = Callable[[list[Any]], Any]
 
 
-class Pending:
-    """The answers of a batch of tasks, waited for in slices; ``cancel`` leaves none running."""
+class RayPending:
+    """The answers of a batch of tasks (a :class:`cehmm.backend.Pending`), waited for in slices;
+    ``cancel`` leaves none running."""
 
     def __init__(self, ray: Any, refs: list[Any], combine: Combine) -> None:
         self._ray, self._refs, self._combine = ray, refs, combine

@@ -13,7 +13,7 @@ use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyT
 use serde_json::{Map, Number, Value};
 
 use ceworld::Error;
-use ceworld::settings::{Given, Setting, Settings};
+use ceworld::settings::{Given, Settings};
 
 use crate::errors::raise;
 
@@ -256,33 +256,18 @@ fn given(value: &Bound<'_, PyAny>) -> Given {
     value.extract::<f64>().map_or(Given::Other, Given::Real)
 }
 
-/// Sets `config` from keyword settings, naming a bad one.
-pub fn apply_settings<S: Settings>(config: &mut S, settings: &Bound<'_, PyDict>) -> PyResult<()> {
-    for (key, value) in settings.iter() {
-        let name: String = key.extract()?;
-        let setting = Setting { name: &name, value: given(&value), shown: shown(&value) };
-        config.set(&setting).map_err(raise)?;
-    }
-    Ok(())
+/// Keyword settings as the core keeps them to apply later ([`ceworld::settings::apply`]).
+pub fn named(settings: &Bound<'_, PyDict>) -> PyResult<Vec<ceworld::settings::Named>> {
+    settings
+        .iter()
+        .map(|(key, value)| {
+            let name: String = key.extract()?;
+            Ok(ceworld::settings::Named { name, value: given(&value), shown: shown(&value) })
+        })
+        .collect()
 }
 
-/// Every optimiser's checkpoint arguments: where, how often (seconds), whether to resume; a
-/// `RuntimeWarning` when the checkpoint to resume from (of the optimiser `K`) is of an earlier
-/// version that carries no digest (its content unverified).
-pub fn checkpointing<K: ceworld::ce::resume::Resumable>(
-    py: Python<'_>,
-    checkpoint: Option<std::path::PathBuf>,
-    every: Option<&Bound<'_, PyAny>>,
-    resume: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Option<ceworld::Checkpointing>> {
-    let every = optional_real("checkpoint_every", every)?.unwrap_or(ceworld::ce::resume::DEFAULT_EVERY);
-    let resume = resume.map(|r| flag("resume", r)).transpose()?.unwrap_or(false);
-    if checkpoint.is_none() && resume {
-        return Err(raise(Error::invalid("resume", "True without a checkpoint (give checkpoint=PATH)")));
-    }
-    if let Some(path) = checkpoint.as_ref().filter(|p| resume && p.exists()) {
-        let peek = ceworld::ce::resume::Checkpoint::<K>::peek(path).map_err(raise)?;
-        crate::errors::warn(py, peek.unverified.as_deref())?;
-    }
-    Ok(checkpoint.map(|path| ceworld::Checkpointing { path, every, resume, outputs: Vec::new() }))
+/// Sets `config` from keyword settings, naming a bad one.
+pub fn apply_settings<S: Settings>(config: &mut S, settings: &Bound<'_, PyDict>) -> PyResult<()> {
+    ceworld::settings::apply(config, &named(settings)?).map_err(raise)
 }

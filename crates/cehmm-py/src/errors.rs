@@ -105,3 +105,9 @@ impl<T> OrRaise<T> for Result<T, Error> {
 pub fn detached<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, Error> + Send) -> PyResult<T> {
     py.detach(|| ceworld::catch_panics(f)).map_err(raise)
 }
+
+/// What the engine is told of `error`, an exception the world's code (or a backend) raised and
+/// that is kept to be raised again as itself.
+pub fn raised(py: Python<'_>, error: &PyErr) -> Error {
+    Error::World(format!("raised {}", error.value(py).repr().map_or_else(|_| "an exception".into(), |r| r.to_string())))
+}

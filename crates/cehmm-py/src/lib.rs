@@ -14,6 +14,7 @@
 #![allow(clippy::needless_pass_by_value)] // pyo3 extracts arguments by value
 #![allow(clippy::redundant_closure_for_method_calls)] // `Python::attach` needs a closure, not a path
 
+mod arg;
 mod cli;
 mod controller;
 mod convert;
@@ -26,6 +27,8 @@ mod policy;
 mod qlearn;
 mod remote;
 mod results;
+mod run;
+mod shards;
 mod signals;
 mod stepping;
 mod world;
@@ -38,7 +41,7 @@ mod _core {
     #[pymodule_export]
     use super::cli::cli;
     #[pymodule_export]
-    use super::controller::{PyControllerOutcome, optimize_controller};
+    use super::controller::optimize_controller;
     #[pymodule_export]
     use super::errors::{
         CehmmError, InternalError, InvalidArgumentError, ModelFormatError, PolicyFormatError, PolicyMismatchError,
@@ -47,7 +50,7 @@ mod _core {
     #[pymodule_export]
     use super::files::{check_distinct, read_file};
     #[pymodule_export]
-    use super::optimize::{PyOptimizeOutcome, optimize};
+    use super::optimize::optimize;
     #[pymodule_export]
     use super::outside::PyOutsideWorld;
     #[pymodule_export]
@@ -55,9 +58,13 @@ mod _core {
     #[pymodule_export]
     use super::qlearn::{PyQLearner, evaluate_policy_windows};
     #[pymodule_export]
-    use super::remote::{PyRemoteWorld, controller_exact_values, controller_values};
+    use super::remote::PyRemoteWorld;
     #[pymodule_export]
     use super::results::{PyEvaluation, PyExactValue, PyRollout, PyWindowEvaluation};
+    #[pymodule_export]
+    use super::run::run;
+    #[pymodule_export]
+    use super::shards::{controller_exact_values, controller_values};
     #[pymodule_export]
     use super::stepping::{PyAgent, PySession};
     #[pymodule_export]
@@ -72,6 +79,9 @@ mod _core {
         let _ = numpy::PyArray1::<f64>::from_vec(m.py(), Vec::new());
         m.add("ENGINE_VERSION", ceworld::VERSION)?;
         m.add("GRAPH_PRUNE", ceworld::policy::graph::PRUNE)?;
+        m.add("BACKEND_METHODS", super::remote::METHODS)?;
+        m.add("PENDING_METHODS", super::remote::PENDING)?;
+        super::run::add(m)?;
         super::defaults::add(m)
     }
 }

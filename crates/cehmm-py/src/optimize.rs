@@ -1,84 +1,21 @@
 //! `cehmm._core.optimize`: the cross-entropy method (model §3) on any registered world, its
-//! result a frozen `OptimizeOutcome`.
+//! result a dict (wrapped by `cehmm.OptimizeResult`).
+
+use std::path::PathBuf;
 
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ceworld::progress::{LiveLine, Progress};
-use std::path::PathBuf;
+use ceworld::CeConfig;
+use ceworld::ce::checkpoint::CeRun;
+use ceworld::ce::resume::Checkpoint;
+use ceworld::run::RunOptions;
 
-use ceworld::{CeConfig, CeResult, PolicyFile};
-
-use crate::convert::{apply_settings, checkpointing, flag};
-use crate::outside::WorldArg;
+use crate::arg::WorldArg;
+use crate::convert::{apply_settings, columns, flag};
 use crate::policy::PyPolicy;
 use crate::results::PyEvaluation;
-use crate::signals::Signals;
-
-/// What `optimize` returns (wrapped by `cehmm.OptimizeResult`).
-#[pyclass(module = "cehmm._core", name = "OptimizeOutcome", frozen)]
-pub struct PyOptimizeOutcome {
-    best: PolicyFile,
-    last: PolicyFile,
-    result: CeResult,
-}
-
-#[pymethods]
-impl PyOptimizeOutcome {
-    /// The policy that drew the best iteration, with its provenance.
-    #[getter]
-    fn policy(&self) -> PyPolicy {
-        PyPolicy { file: self.best.clone() }
-    }
-
-    /// The policy after the last update.
-    #[getter]
-    fn last_policy(&self) -> PyPolicy {
-        PyPolicy { file: self.last.clone() }
-    }
-
-    /// One numpy array per statistic, one entry per iteration.
-    #[getter]
-    fn history<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        crate::convert::columns(py, &self.result.history)
-    }
-
-    /// The best policy evaluated on fresh episodes.
-    #[getter]
-    fn evaluation(&self) -> PyEvaluation {
-        PyEvaluation(self.result.evaluation.clone())
-    }
-
-    /// Why it stopped.
-    #[getter]
-    fn stop_reason(&self) -> &'static str {
-        self.result.stop.as_str()
-    }
-
-    /// Whether Ctrl-C stopped it.
-    #[getter]
-    fn interrupted(&self) -> bool {
-        self.result.interrupted()
-    }
-
-    /// Index of the best iteration.
-    #[getter]
-    fn best_iteration(&self) -> usize {
-        self.result.best_iteration
-    }
-
-    /// Iterations run.
-    #[getter]
-    fn iterations(&self) -> usize {
-        self.result.history.len()
-    }
-
-    /// Wall seconds, evaluation included.
-    #[getter]
-    fn seconds(&self) -> f64 {
-        self.result.seconds
-    }
-}
+use crate::run::{checkpointing, watched};
 
 /// Runs the cross-entropy method (model §3) from `initial` with `settings` (keyword settings by
 /// name; one left out has its default), checkpointed when `checkpoint` is given; Ctrl-C stops it
@@ -86,43 +23,36 @@ impl PyOptimizeOutcome {
 #[pyfunction]
 #[pyo3(signature = (world, initial, settings, *, progress, checkpoint=None, checkpoint_every=None, resume=None))]
 #[allow(clippy::too_many_arguments)]
-pub fn optimize(
-    py: Python<'_>,
-    world: &Bound<'_, PyAny>,
+pub fn optimize<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
     initial: &PyPolicy,
-    settings: &Bound<'_, PyDict>,
-    progress: &Bound<'_, PyAny>,
+    settings: &Bound<'py, PyDict>,
+    progress: &Bound<'py, PyAny>,
     checkpoint: Option<PathBuf>,
-    checkpoint_every: Option<&Bound<'_, PyAny>>,
-    resume: Option<&Bound<'_, PyAny>>,
-) -> PyResult<PyOptimizeOutcome> {
+    checkpoint_every: Option<&Bound<'py, PyAny>>,
+    resume: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
     let mut config = CeConfig::default();
     apply_settings(&mut config, settings)?;
     let progress = flag("progress", progress)?;
-    let checkpointing = checkpointing::<ceworld::ce::checkpoint::CeRun>(py, checkpoint, checkpoint_every, resume)?;
-    let world = WorldArg::of(world)?;
-    let initial = initial.file.policy.clone();
-    let mut signals = Signals::default();
-    let interrupt = signals.interrupt().clone();
-    let outcome = world.run_watched(py, &mut signals, |w| {
-        let mut line = progress.then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
-        let result = ceworld::optimize_with(w, initial, &config, checkpointing.as_ref(), |record| {
-            if let Some(line) = &mut line {
-                line.update(record);
-            }
-            interrupt.flow()
-        });
-        if let Some(line) = line {
-            line.finish();
-        }
-        result.map(|result| PyOptimizeOutcome {
-            best: result.to_file(w, &config),
-            last: result.last_to_file(w, &config),
-            result,
-        })
-    });
-    signals.finish(py)?;
-    let outcome = outcome?;
-    crate::errors::warn_checkpoint(py, outcome.result.checkpoint_error.as_deref())?;
-    Ok(outcome)
+    let checkpointing = checkpointing(py, Checkpoint::<CeRun>::peek, checkpoint, checkpoint_every, resume)?;
+    let (world, initial) = (WorldArg::of(world)?, initial.file.policy.clone());
+    let run = |w: &dyn ceworld::Episodes, options: &RunOptions<'_>| {
+        let r = ceworld::run::optimize(w, initial, &config, options)?;
+        Ok((r.to_file(w, &config), r.last_to_file(w, &config), r))
+    };
+    let (best, last, r) =
+        watched(py, &world, progress, checkpointing.as_ref(), run, |o| o.2.checkpoint_error.as_deref())?;
+    let result = PyDict::new(py);
+    result.set_item("history", columns(py, &r.history)?)?;
+    result.set_item("policy", PyPolicy { file: best })?;
+    result.set_item("last_policy", PyPolicy { file: last })?;
+    result.set_item("evaluation", PyEvaluation(r.evaluation.clone()))?;
+    result.set_item("stop_reason", r.stop.as_str())?;
+    result.set_item("interrupted", r.interrupted())?;
+    result.set_item("best_iteration", r.best_iteration)?;
+    result.set_item("iterations", r.history.len())?;
+    result.set_item("seconds", r.seconds)?;
+    Ok(result)
 }

@@ -1,21 +1,19 @@
 //! `cehmm._core.OutsideWorld`: a world written in Python (the episode or the batched protocol,
 //! `cehmm.outside` puts every other form into one of them), translated into
-//! `ceworld::episodes::outside::BatchWorld`; and `WorldArg`, the one place that runs engine code on
-//! either kind of world.
+//! `ceworld::episodes::outside::BatchWorld`.
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use serde_json::Value;
 
-use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
-use ceworld::episodes::{Interruptible, Shape};
-use ceworld::{Episodes, Error, with_world};
+use ceworld::Error;
+use ceworld::episodes::Shape;
+use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut, discounted};
 
 use crate::convert::{count, object, real};
-use crate::errors::{detached, raise};
+use crate::errors::{raise, raised};
 use crate::signals::Signals;
-use crate::world::PyWorld;
 
 /// A world written in Python, checked once: its shape, protocol, batch size and score.
 #[pyclass(module = "cehmm._core", name = "OutsideWorld", frozen)]
@@ -88,6 +86,11 @@ impl PyOutsideWorld {
 }
 
 impl PyOutsideWorld {
+    /// Its shape and what policy files record of it.
+    pub fn described(&self) -> (Shape, Value) {
+        (self.shape, self.description.clone())
+    }
+
     fn batch_world(&self) -> PyBatch {
         let world = Python::attach(|py| PyOutsideWorld {
             world: self.world.clone_ref(py),
@@ -316,22 +319,16 @@ impl BatchWorld for PyBatch {
 
     fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {
         if self.world.score.is_none() {
-            let mut factor = 1.0;
-            let mut total = 0.0;
-            for r in episode.rewards {
-                total += factor * r;
-                factor *= self.world.discount;
-            }
-            return Ok(total);
+            return Ok(discounted(episode.rewards, self.world.discount));
         }
         Python::attach(|py| {
+            let score = self.world.score.as_ref().map(|s| s.clone_ref(py)).expect("checked above");
             let column = |values: Vec<i64>| PyArray1::from_vec(py, values);
             let args = (
                 column(episode.observations().map(|y| y as i64).collect()),
                 column(episode.decisions().map(|d| d as i64).collect()),
                 PyArray1::from_slice(py, episode.rewards),
             );
-            let score = self.world.score.as_ref().expect("checked above");
             let value = score.bind(py).call1(args).map_err(|e| self.keep(py, e))?;
             value
                 .extract::<f64>()
@@ -340,104 +337,9 @@ impl BatchWorld for PyBatch {
     }
 }
 
-/// The world argument of the engine's functions: a registered world or one written in Python.
-pub enum WorldArg<'py> {
-    /// A registered world.
-    Engine(PyRef<'py, PyWorld>),
-    /// A world written in Python.
-    Outside(PyRef<'py, PyOutsideWorld>),
-    /// A world whose episodes a backend samples elsewhere.
-    Remote(PyRef<'py, crate::remote::PyRemoteWorld>),
-}
-
-impl<'py> WorldArg<'py> {
-    /// `world` as either kind, or a `TypeError`.
-    pub fn of(world: &Bound<'py, PyAny>) -> PyResult<Self> {
-        if let Ok(w) = world.extract::<PyRef<'py, PyWorld>>() {
-            return Ok(WorldArg::Engine(w));
-        }
-        if let Ok(w) = world.extract::<PyRef<'py, crate::remote::PyRemoteWorld>>() {
-            return Ok(WorldArg::Remote(w));
-        }
-        world.extract::<PyRef<'py, PyOutsideWorld>>().map(WorldArg::Outside).map_err(|_| {
-            pyo3::exceptions::PyTypeError::new_err(format!(
-                "invalid world: {} (expected a cehmm world or a world written in Python)",
-                crate::convert::shown(world)
-            ))
-        })
-    }
-
-    /// The tabular world (a `.pomdp` file) it is, if it is one.
-    pub fn tabular(&self) -> Option<&ceworld::world::pomdp::PomdpWorld> {
-        match self {
-            WorldArg::Engine(w) => match &w.world {
-                ceworld::world::registry::AnyWorld::Pomdp(tabular) => Some(tabular),
-                ceworld::world::registry::AnyWorld::TargetTracking(_) => None,
-            },
-            WorldArg::Outside(_) | WorldArg::Remote(_) => None,
-        }
-    }
-
-    /// Runs `f` on the world's episodes, detached from the interpreter. An exception raised by a
-    /// world's Python code comes back as itself, with a note naming the episode and the step.
-    pub fn run<T: Send>(
-        &self,
-        py: Python<'_>,
-        f: impl FnOnce(&dyn Episodes) -> ceworld::Result<T> + Send,
-    ) -> PyResult<T> {
-        self.run_with(py, None, f)
-    }
-
-    /// [`WorldArg::run`], the signal handlers run meanwhile: Ctrl-C stops the episodes (between
-    /// two steps of a world written in Python, between two calls of one run by the engine).
-    pub fn run_watched<T: Send>(
-        &self,
-        py: Python<'_>,
-        signals: &mut Signals,
-        f: impl FnOnce(&dyn Episodes) -> ceworld::Result<T> + Send,
-    ) -> PyResult<T> {
-        self.run_with(py, Some(signals), f)
-    }
-
-    fn run_with<T: Send>(
-        &self,
-        py: Python<'_>,
-        signals: Option<&mut Signals>,
-        f: impl FnOnce(&dyn Episodes) -> ceworld::Result<T> + Send,
-    ) -> PyResult<T> {
-        match self {
-            WorldArg::Engine(w) => {
-                let world = &w.world;
-                match signals {
-                    None => detached(py, || with_world!(world, w => f(w))),
-                    Some(signals) => {
-                        let interrupt = signals.interrupt().clone();
-                        let run =
-                            || ceworld::catch_panics(|| with_world!(world, w => f(&Interruptible::new(w, interrupt))));
-                        signals.watch(py, run)?.map_err(raise)
-                    }
-                }
-            }
-            WorldArg::Outside(w) => run_outside(py, w, signals, |lockstep| f(lockstep)),
-            WorldArg::Remote(w) => {
-                let interrupt = signals.as_ref().map(|s| s.interrupt().clone()).unwrap_or_default();
-                let remote = w.episodes(py, interrupt);
-                let result = detached_or_watched(py, signals, || f(&remote))?;
-                surface(py, result, remote.into_raised())
-            }
-        }
-    }
-}
-
-/// What the engine is told of `error`, an exception the world's code (or a backend) raised and
-/// that is kept to be raised again as itself.
-pub fn raised(py: Python<'_>, error: &PyErr) -> Error {
-    Error::World(format!("raised {}", error.value(py).repr().map_or_else(|_| "an exception".into(), |r| r.to_string())))
-}
-
 /// Runs `f` detached from the interpreter, or on the engine's thread while `signals` are
 /// watched; a panic in it caught.
-fn detached_or_watched<T: Send>(
+pub fn detached_or_watched<T: Send>(
     py: Python<'_>,
     signals: Option<&mut Signals>,
     f: impl FnOnce() -> ceworld::Result<T> + Send,
@@ -450,7 +352,7 @@ fn detached_or_watched<T: Send>(
 
 /// `result`, or the exception the world's code raised (with its traceback) where that is what
 /// failed, a note naming where it happened.
-fn surface<T>(py: Python<'_>, result: ceworld::Result<T>, raised: Option<PyErr>) -> PyResult<T> {
+pub fn surface<T>(py: Python<'_>, result: ceworld::Result<T>, raised: Option<PyErr>) -> PyResult<T> {
     match (result, raised) {
         (Err(error), Some(exception)) => {
             let _ = exception.value(py).call_method1("add_note", (error.to_string(),));

@@ -10,11 +10,12 @@ use pyo3::types::PyDict;
 use serde_json::{Value, json};
 
 use ceworld::evaluate::{check_fits, rollout};
-use ceworld::{AnyWorld, Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
+use ceworld::{Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
 
+use crate::arg::WorldArg;
 use crate::convert::{count, flag, levels, object, optional_count, real, seed, shape_text, text, to_py};
 use crate::errors::{OrRaise, detached, raise};
-use crate::outside::{WorldArg, run_outside};
+use crate::outside::run_outside;
 use crate::results::{PyEvaluation, PyExactValue, PyRollout};
 use crate::signals::Signals;
 use crate::world::PyWorld;
@@ -381,9 +382,9 @@ impl PyPolicy {
 /// what `world` is (an engine world of another kind, or a world that runs outside the engine).
 fn tabular(world: &Bound<'_, PyAny>, what: &str) -> PyResult<ceworld::PomdpWorld> {
     let shown = match world.extract::<PyRef<'_, PyWorld>>() {
-        Ok(w) => match &w.world {
-            AnyWorld::Pomdp(pomdp) => return Ok(pomdp.clone()),
-            other @ AnyWorld::TargetTracking(_) => other.name().to_string(),
+        Ok(w) => match w.world.tabular() {
+            Some(pomdp) => return Ok(pomdp.clone()),
+            None => w.world.name().to_string(),
         },
         Err(_) => "a world that runs outside the engine (written in Python, or sampled elsewhere)".to_string(),
     };

@@ -8,40 +8,28 @@ use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ceworld::progress::LiveLine;
 use ceworld::qlearn::{AnyLearner, KnownState, QConfig, Ties, WindowConfig};
 use ceworld::{Error, World, thread_pool, with_learner};
 
-use crate::convert::{count, flag, optional_count, optional_real, real, seed, text, to_py};
+use crate::convert::{apply_settings, count, flag, optional_count, optional_real, real, seed, text, to_py};
 use crate::errors::{OrRaise, detached, raise};
 use crate::policy::PyPolicy;
 use crate::results::PyWindowEvaluation;
 use crate::signals::Signals;
 use crate::world::PyWorld;
 
-/// The window settings: the core's defaults, overridden by the keyword arguments given.
-fn window_config(settings: Option<&Bound<'_, PyDict>>) -> PyResult<WindowConfig> {
+/// The window settings: the core's defaults, overridden by the settings given.
+fn window_config(settings: &Bound<'_, PyDict>) -> PyResult<WindowConfig> {
     let mut config = WindowConfig::default();
-    for (key, value) in settings.into_iter().flatten() {
-        let key: String = key.extract()?;
-        let slot: &mut usize = match key.as_str() {
-            "window" => &mut config.window,
-            "episodes" => &mut config.episodes,
-            "chains" => &mut config.chains,
-            "windows_per_chain" => &mut config.windows_per_chain,
-            "burn_in" => {
-                config.burn_in = seed("burn_in", &value)?;
-                continue;
-            }
-            _ => {
-                return Err(raise(Error::invalid(
-                    "window setting",
-                    format!("{key:?} (expected one of burn_in, chains, episodes, window, windows_per_chain)"),
-                )));
-            }
-        };
-        *slot = count(&key, &value)?;
-    }
+    apply_settings(&mut config, settings)?;
+    config.validate().or_raise()?;
+    Ok(config)
+}
+
+/// The learning settings: the core's defaults, overridden by the settings given.
+fn q_config(settings: &Bound<'_, PyDict>) -> PyResult<QConfig> {
+    let mut config = QConfig::default();
+    apply_settings(&mut config, settings)?;
     config.validate().or_raise()?;
     Ok(config)
 }
@@ -60,36 +48,21 @@ fn windows(
 /// An HHMM policy evaluated on windows of a continuing run, as the paper compares policies (see
 /// `ceworld::qlearn::evaluate_windows`).
 #[pyfunction]
-#[pyo3(signature = (policy, world, *, seed, threads, reference, **settings))]
+#[pyo3(signature = (policy, world, settings, *, seed, threads, reference))]
 pub fn evaluate_policy_windows(
     py: Python<'_>,
     policy: &PyPolicy,
     world: &PyWorld,
+    settings: &Bound<'_, PyDict>,
     seed: &Bound<'_, PyAny>,
     threads: Option<&Bound<'_, PyAny>>,
     reference: &Bound<'_, PyAny>,
-    settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyWindowEvaluation> {
     let (config, seed) = (window_config(settings)?, self::seed("seed", seed)?);
     let (world, policy) = (&world.world, &policy.file.policy);
     let threads = optional_count("threads", threads)?;
     windows(py, threads, real("reference", reference)?, || {
         ceworld::qlearn::evaluate_policy_windows(world, policy, &config, seed)
-    })
-}
-
-/// The learning settings from their Python values.
-fn q_config(
-    gamma: &Bound<'_, PyAny>,
-    alpha: &Bound<'_, PyAny>,
-    seed: &Bound<'_, PyAny>,
-    ties: &Bound<'_, PyAny>,
-) -> PyResult<QConfig> {
-    Ok(QConfig {
-        gamma: real("gamma", gamma)?,
-        alpha: real("alpha", alpha)?,
-        seed: self::seed("seed", seed)?,
-        ties: Ties::parse(&text("ties", ties)?).or_raise()?,
     })
 }
 
@@ -103,16 +76,8 @@ pub struct PyQLearner {
 impl PyQLearner {
     /// A fresh run with a zero table (refused with `MemoryError` when it would not fit).
     #[new]
-    #[pyo3(signature = (world, *, gamma, alpha, seed, ties))]
-    fn new(
-        py: Python<'_>,
-        world: &PyWorld,
-        gamma: &Bound<'_, PyAny>,
-        alpha: &Bound<'_, PyAny>,
-        seed: &Bound<'_, PyAny>,
-        ties: &Bound<'_, PyAny>,
-    ) -> PyResult<Self> {
-        let config = q_config(gamma, alpha, seed, ties)?;
+    fn new(py: Python<'_>, world: &PyWorld, settings: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let config = q_config(settings)?;
         let world = world.world.clone();
         Ok(PyQLearner { learner: detached(py, || AnyLearner::new(world, config))? })
     }
@@ -126,18 +91,8 @@ impl PyQLearner {
     /// Reads the run saved in `path` to continue it: it must have been made in `world` with
     /// these settings.
     #[staticmethod]
-    #[pyo3(signature = (path, world, *, gamma, alpha, seed, ties))]
-    #[allow(clippy::too_many_arguments)]
-    fn resume(
-        py: Python<'_>,
-        path: PathBuf,
-        world: &PyWorld,
-        gamma: &Bound<'_, PyAny>,
-        alpha: &Bound<'_, PyAny>,
-        seed: &Bound<'_, PyAny>,
-        ties: &Bound<'_, PyAny>,
-    ) -> PyResult<Self> {
-        let config = q_config(gamma, alpha, seed, ties)?;
+    fn resume(py: Python<'_>, path: PathBuf, world: &PyWorld, settings: &Bound<'_, PyDict>) -> PyResult<Self> {
+        let config = q_config(settings)?;
         let world = &world.world;
         Ok(PyQLearner { learner: detached(py, || AnyLearner::resume(path, world, &config))? })
     }
@@ -172,19 +127,9 @@ impl PyQLearner {
         let interrupt = signals.interrupt().clone();
         let outcome = signals.watch(py, || {
             ceworld::catch_panics(|| {
-                with_learner!(learner, q => {
-                    let mut line = progress.then(LiveLine::stderr);
-                    let outcome = q.train(until, checkpoint.as_deref(), every, |p| {
-                        if let Some(line) = &mut line {
-                            line.update(p.line());
-                        }
-                        interrupt.flow()
-                    });
-                    if let Some(line) = line {
-                        line.finish();
-                    }
-                    outcome
-                })
+                let stop = || interrupt.flow();
+                let options = ceworld::run::RunOptions { progress, checkpointing: None, stop: &stop };
+                with_learner!(learner, q => ceworld::run::qlearn(q, until, checkpoint.as_deref(), every, &options))
             })
         })?;
         signals.finish(py)?;
@@ -195,17 +140,17 @@ impl PyQLearner {
 
     /// The greedy policy evaluated on windows of `world`; ties broken as in learning unless
     /// `ties` says otherwise.
-    #[pyo3(signature = (world, *, seed, threads, reference, ties, **settings))]
+    #[pyo3(signature = (world, settings, *, seed, threads, reference, ties))]
     #[allow(clippy::too_many_arguments)]
     fn evaluate_windows(
         &self,
         py: Python<'_>,
         world: &PyWorld,
+        settings: &Bound<'_, PyDict>,
         seed: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
         reference: &Bound<'_, PyAny>,
         ties: Option<&Bound<'_, PyAny>>,
-        settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<PyWindowEvaluation> {
         let (config, seed) = (window_config(settings)?, self::seed("seed", seed)?);
         let ties = match ties.filter(|t| !t.is_none()) {

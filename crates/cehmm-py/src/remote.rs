@@ -1,16 +1,19 @@
 //! Episodes sampled elsewhere (model §9): `cehmm._core.RemoteWorld`, a world whose episodes a
-//! backend written in Python (`cehmm.ray_backend`) samples on other processes or machines, and
-//! the worker's side of it, `controller_values` and `controller_exact_values`. The driver's
+//! backend written in Python (`cehmm.ray_backend`) samples on other processes or machines (the
+//! worker's side is `shards`). The driver's
 //! optimisers run unchanged on a [`Remote`]: only tables, controllers, episode numbers,
 //! rewards, values and counts cross.
 //!
-//! The backend has `rewards(policy, seed, purpose, iteration, first, n)`,
+//! The backend is typed on both sides: here [`METHODS`] (exported as `_core.BACKEND_METHODS`),
+//! in Python the protocol `cehmm.backend.Sampler`, checked against each other by
+//! `tests/test_backend.py`. It has `rewards(policy, seed, purpose, iteration, first, n)`,
 //! `counts(policy, seed, iteration, episodes)`,
 //! `controller_values(controllers, seed, purpose, iteration, episodes)` and
 //! `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
-//! returning at once a pending answer with `wait(seconds) -> bool`, `result() -> numpy array`
-//! and `cancel()`: the engine waits in short slices, so that Ctrl-C cancels what is still
-//! running.
+//! returning at once a pending answer ([`PENDING`]: `wait(seconds) -> bool`,
+//! `result() -> numpy array` and `cancel()`): the engine waits in short slices, so that Ctrl-C
+//! cancels what is still running. On the engine's side the same four are the [`Episodes`]
+//! methods `run` and `run_controllers` and the trait [`ceworld::episodes::Remote`].
 
 use std::sync::Mutex;
 
@@ -19,15 +22,22 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use serde_json::{Value, json};
 
-use ceworld::ce::controller::ControllerValue;
 use ceworld::episodes::{Batch, Episodes, Shape, Streams};
 use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
 use ceworld::{Error, Hhmm, Interrupt, PolicyFile};
 
-use crate::convert::{count, seed};
-use crate::errors::{OrRaise, raise};
-use crate::outside::WorldArg;
+/// What the engine asks of a backend, by name: rewards, counts, controller values, exact values.
+pub const METHODS: [&str; 4] = [REWARDS, COUNTS, CONTROLLER_VALUES, EXACT_VALUES];
+const REWARDS: &str = "rewards";
+const COUNTS: &str = "counts";
+const CONTROLLER_VALUES: &str = "controller_values";
+const EXACT_VALUES: &str = "exact_values";
+/// What a backend's pending answer has: wait, result, cancel.
+pub const PENDING: [&str; 3] = [WAIT_FOR, RESULT, CANCEL];
+const WAIT_FOR: &str = "wait";
+const RESULT: &str = "result";
+const CANCEL: &str = "cancel";
 
 /// How long the engine waits for a pending answer before it looks for Ctrl-C again (seconds).
 const WAIT: f64 = 0.05;
@@ -46,10 +56,19 @@ pub struct PyRemoteWorld {
 impl PyRemoteWorld {
     /// `world` (an engine world or a world written in Python) sampled by `backend`.
     #[new]
-    fn new(py: Python<'_>, backend: Py<PyAny>, world: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let world = WorldArg::of(world)?;
-        let tabular = world.tabular().is_some();
-        let (shape, description) = world.run(py, |w| Ok((w.shape(), w.description())))?;
+    fn new(backend: Py<PyAny>, world: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let (shape, description, tabular) = if let Ok(w) = world.extract::<PyRef<'_, crate::world::PyWorld>>() {
+            let (shape, description) = ceworld::with_world!(&w.world, x => (x.shape(), x.description()));
+            (shape, description, w.world.tabular().is_some())
+        } else if let Ok(w) = world.extract::<PyRef<'_, crate::outside::PyOutsideWorld>>() {
+            let (shape, description) = w.described();
+            (shape, description, false)
+        } else {
+            return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                "invalid world: {} (expected a cehmm world or a world written in Python)",
+                crate::convert::shown(world)
+            )));
+        };
         Ok(PyRemoteWorld { backend, shape, description, tabular })
     }
 
@@ -73,6 +92,7 @@ impl PyRemoteWorld {
             backend: self.backend.clone_ref(py),
             shape: self.shape,
             description: self.description.clone(),
+            tabular: self.tabular,
             interrupt,
             raised: Mutex::new(None),
         }
@@ -84,6 +104,7 @@ pub struct Remote {
     backend: Py<PyAny>,
     shape: Shape,
     description: Value,
+    tabular: bool,
     interrupt: Interrupt,
     raised: Mutex<Option<PyErr>>,
 }
@@ -96,7 +117,7 @@ impl Remote {
 
     /// Keeps `error` and reports it to the engine.
     fn keep(&self, py: Python<'_>, error: PyErr) -> Error {
-        let reported = crate::outside::raised(py, &error);
+        let reported = crate::errors::raised(py, &error);
         self.raised.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_or_insert(error);
         reported
     }
@@ -116,11 +137,11 @@ impl Remote {
         })?;
         loop {
             if let Err(stop) = self.interrupt.check() {
-                Python::attach(|py| pending.bind(py).call_method0("cancel").map(drop).map_err(|e| self.keep(py, e)))?;
+                Python::attach(|py| pending.bind(py).call_method0(CANCEL).map(drop).map_err(|e| self.keep(py, e)))?;
                 return Err(stop);
             }
             let done = Python::attach(|py| {
-                let done = pending.bind(py).call_method1("wait", (WAIT,)).map_err(|e| self.keep(py, e))?;
+                let done = pending.bind(py).call_method1(WAIT_FOR, (WAIT,)).map_err(|e| self.keep(py, e))?;
                 done.extract::<bool>().map_err(|e| self.keep(py, e))
             })?;
             if done {
@@ -128,7 +149,7 @@ impl Remote {
             }
         }
         Python::attach(|py| {
-            let answer = pending.bind(py).call_method0("result").map_err(|e| self.keep(py, e))?;
+            let answer = pending.bind(py).call_method0(RESULT).map_err(|e| self.keep(py, e))?;
             let array: PyReadonlyArray1<'_, T> = answer.extract().map_err(|e| self.keep(py, e))?;
             let values = array.as_slice().map_err(|e| self.keep(py, e.into()))?;
             if values.len() != len {
@@ -169,7 +190,7 @@ impl Episodes for Remote {
         }
         let (text, purpose, n) = (self.policy_json(policy), purpose_name(streams.purpose)?, batch.values.len());
         let rewards = self.ask::<f64>(
-            "rewards",
+            REWARDS,
             |py| Ok((text, streams.seed, purpose, streams.iteration, first, n).into_pyobject(py)?.unbind()),
             n,
         )?;
@@ -187,7 +208,7 @@ impl Episodes for Remote {
         let text = serde_json::to_string(controllers).expect("controllers serialise");
         let purpose = purpose_name(streams.purpose)?;
         let answer = self.ask::<f64>(
-            "controller_values",
+            CONTROLLER_VALUES,
             |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
             values.len(),
         )?;
@@ -205,6 +226,10 @@ impl Episodes for Remote {
 }
 
 impl ceworld::episodes::Remote for Remote {
+    fn tabular(&self) -> bool {
+        self.tabular
+    }
+
     fn counts(&self, policy: &Hhmm, streams: Streams, episodes: &[usize]) -> ceworld::Result<Vec<u32>> {
         let text = self.policy_json(policy);
         let episodes: Vec<u64> = episodes.iter().map(|&k| k as u64).collect();
@@ -212,79 +237,12 @@ impl ceworld::episodes::Remote for Remote {
             let episodes = PyArray1::from_vec(py, episodes);
             Ok((text, streams.seed, streams.iteration, episodes).into_pyobject(py)?.unbind())
         };
-        self.ask::<u32>("counts", args, policy.layout().len)
+        self.ask::<u32>(COUNTS, args, policy.layout().len)
     }
 
     fn exact_values(&self, controllers: &[Controller], tolerance: f64) -> ceworld::Result<Vec<f64>> {
         let text = serde_json::to_string(controllers).expect("controllers serialise");
         let args = |py: Python<'_>| Ok((text, tolerance).into_pyobject(py)?.unbind());
-        self.ask::<f64>("exact_values", args, controllers.len())
+        self.ask::<f64>(EXACT_VALUES, args, controllers.len())
     }
-}
-
-/// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), checked against
-/// `shape`.
-fn read_controllers(text: &str, shape: Shape) -> PyResult<Vec<Controller>> {
-    let controllers: Vec<Controller> = serde_json::from_str(text)
-        .map_err(|e| raise(Error::invalid("controllers", format!("{e} (expected a JSON list of controllers)"))))?;
-    controllers.iter().try_for_each(|c| c.check(shape.observations, shape.decisions)).or_raise()?;
-    Ok(controllers)
-}
-
-/// The values of episodes `0..episodes` of `(seed, purpose, iteration)` of each controller of
-/// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), controller by
-/// controller: a shard of a controller search's iteration or selection, as a worker runs it.
-#[pyfunction]
-#[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
-#[allow(clippy::too_many_arguments)]
-pub fn controller_values<'py>(
-    py: Python<'py>,
-    world: &Bound<'py, PyAny>,
-    controllers: &str,
-    seed: &Bound<'py, PyAny>,
-    purpose: &str,
-    iteration: &Bound<'py, PyAny>,
-    episodes: &Bound<'py, PyAny>,
-    threads: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let streams = Streams {
-        seed: self::seed("seed", seed)?,
-        purpose: Purpose::of_episodes(purpose).or_raise()?,
-        iteration: self::seed("iteration", iteration)?,
-    };
-    let episodes = count("episodes", episodes)?;
-    ceworld::evaluate::check_episodes(episodes).or_raise()?;
-    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
-    let world = WorldArg::of(world)?;
-    let controllers = read_controllers(controllers, world.run(py, |w| Ok(w.shape()))?)?;
-    let values = world.run(py, |w| {
-        let mut values = vec![0.0; controllers.len() * episodes];
-        pool.install(|| w.run_controllers(&controllers, streams, episodes, &mut values)).map(|()| values)
-    })?;
-    Ok(PyArray1::from_vec(py, values))
-}
-
-/// The exact values of `controllers` (JSON text, as for [`controller_values`]) on a tabular
-/// world, to `tolerance` (model §8): a shard of an iteration of a search on exact values, as a
-/// worker runs it.
-#[pyfunction]
-#[pyo3(signature = (world, controllers, tolerance, threads = None))]
-pub fn controller_exact_values<'py>(
-    py: Python<'py>,
-    world: &Bound<'py, PyAny>,
-    controllers: &str,
-    tolerance: &Bound<'py, PyAny>,
-    threads: Option<&Bound<'py, PyAny>>,
-) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let tolerance = crate::convert::real("tolerance", tolerance)?;
-    ceworld::ce::controller::ControllerConfig { tolerance, ..Default::default() }.validate().or_raise()?;
-    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
-    let world = WorldArg::of(world)?;
-    let tabular = world
-        .tabular()
-        .ok_or_else(|| raise(Error::invalid("world", "not tabular (exact values need a cehmm.PomdpWorld)")))?;
-    let controllers = read_controllers(controllers, ceworld::episodes::Episodes::shape(tabular))?;
-    let exact = ControllerValue::new(tabular, tolerance);
-    let values = py.detach(|| pool.install(|| exact.values(&controllers)));
-    Ok(PyArray1::from_vec(py, values))
 }

@@ -143,22 +143,6 @@ impl PyRollout {
         Ok(PyArray1::from_iter(py, r.x.iter().skip(k).step_by(width).copied()))
     }
 
-    /// The episode drawn (`cehmm.plots.rollout`, keywords passed on): a matplotlib figure.
-    #[pyo3(signature = (**kwargs))]
-    fn plot<'py>(slf: &Bound<'py, Self>, kwargs: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
-        slf.py().import("cehmm.plots")?.getattr("rollout")?.call((slf,), kwargs)
-    }
-
-    /// The episode as an animation saved to `path` (`cehmm.plots.animation`, keywords passed on).
-    #[pyo3(signature = (path, **kwargs))]
-    fn animate<'py>(
-        slf: &Bound<'py, Self>,
-        path: &Bound<'py, PyAny>,
-        kwargs: Option<&Bound<'py, PyDict>>,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        slf.py().import("cehmm.plots")?.getattr("animation")?.call((slf, path), kwargs)
-    }
-
     fn __repr__(&self) -> String {
         format!("Rollout(steps={}, levels={}, reward={})", self.0.len(), self.0.levels, self.0.reward)
     }

@@ -105,7 +105,7 @@ impl PyWorld {
     /// The model of a tabular world (model §7): names, the discount, the start distribution and
     /// the tables `T[a, s, s']`, `O[a, s', o]` and the expected reward `R[a, s]` (costs negated).
     fn model<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let AnyWorld::Pomdp(world) = &self.world else {
+        let Some(world) = self.world.tabular() else {
             return Err(raise(Error::invalid("world", format!("{} (not a tabular world)", self.world.name()))));
         };
         let t = world.tables();

@@ -28,6 +28,7 @@ pub mod policy;
 pub mod progress;
 pub mod qlearn;
 pub mod rng;
+pub mod run;
 pub mod settings;
 pub mod world;
 

@@ -97,6 +97,25 @@ impl Setting<'_> {
     }
 }
 
+/// A setting given by name and kept, to be applied once the config's defaults are known (a
+/// controller search's depend on the world: [`crate::run::controller_setup`]).
+#[derive(Clone, Debug)]
+pub struct Named {
+    /// The setting's name.
+    pub name: String,
+    /// Its value.
+    pub value: Given,
+    /// The value as the caller writes it.
+    pub shown: String,
+}
+
+/// Sets `config` from `settings`, in order, naming the first bad one.
+pub fn apply<S: Settings + ?Sized>(config: &mut S, settings: &[Named]) -> Result<()> {
+    settings
+        .iter()
+        .try_for_each(|s| config.set(&Setting { name: &s.name, value: s.value.clone(), shown: s.shown.clone() }))
+}
+
 /// Settings that can be set by name.
 pub trait Settings: Serialize {
     /// Sets the setting `setting.name` (an error for a name it does not have, listing those it

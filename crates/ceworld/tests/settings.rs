@@ -2,8 +2,9 @@
 //! name, so that a new setting reaches Python, checkpoints and provenance from its config alone.
 
 use ceworld::settings::{Given, Setting, Settings};
-use ceworld::{CeConfig, ControllerConfig, Error};
-use serde_json::Value;
+use ceworld::qlearn::Ties;
+use ceworld::{CeConfig, ControllerConfig, Error, QConfig, WindowConfig};
+use serde_json::{Value, json};
 
 /// The setting `name` given as its JSON value (as the Python bindings would give it).
 fn setting<'a>(name: &'a str, value: &Value) -> Setting<'a> {
@@ -115,4 +116,44 @@ fn the_provenance_records_every_set_setting_by_name() {
     assert_eq!(p["decision_smoothing"], 0.5);
     assert!(!p.contains_key("threads") && !p.contains_key("max_iterations"));
     assert_eq!(p["samples"], 1000);
+}
+
+#[test]
+fn every_q_and_window_setting_is_set_by_its_name() {
+    every_setting_is_set_by_its_name(&QConfig { gamma: 0.5, alpha: 0.25, seed: u64::MAX, ties: Ties::Lowest });
+    every_setting_is_set_by_its_name(&QConfig::default());
+    every_setting_is_set_by_its_name(&WindowConfig {
+        window: 7,
+        episodes: 11,
+        chains: 3,
+        burn_in: u64::MAX,
+        windows_per_chain: 5,
+    });
+    every_setting_is_set_by_its_name(&WindowConfig::default());
+    assert_eq!(QConfig::default().names(), ["alpha", "gamma", "seed", "ties"]);
+    assert_eq!(WindowConfig::default().names(), ["burn_in", "chains", "episodes", "window", "windows_per_chain"]);
+}
+
+#[test]
+fn q_and_window_settings_are_checked_by_kind_and_name() {
+    let mut q = QConfig::default();
+    let set = |q: &mut QConfig, name: &str, value: Value| q.set(&setting(name, &value));
+    let e = set(&mut q, "ties", json!("first")).unwrap_err().to_string();
+    assert!(e.contains("ties") && e.contains("\"lowest\""), "{e}");
+    assert!(matches!(set(&mut q, "ties", json!(1)), Err(Error::WrongType { .. })));
+    assert!(matches!(set(&mut q, "gamma", json!("0.9")), Err(Error::WrongType { .. })));
+    assert!(matches!(set(&mut q, "seed", json!(-1)), Err(Error::InvalidArgument { .. })));
+    let e = set(&mut q, "epsilon", json!(0.1)).unwrap_err().to_string();
+    assert!(e.contains("\"epsilon\"") && e.contains("alpha, gamma, seed, ties"), "{e}");
+    assert_eq!(q, QConfig::default(), "a refused setting changes nothing");
+    let mut w = WindowConfig::default();
+    assert!(matches!(w.set(&setting("window", &json!(2.5))), Err(Error::WrongType { .. })));
+    assert!(matches!(w.set(&setting("burn_in", &json!(true))), Err(Error::WrongType { .. })));
+    let e = w.set(&setting("frames", &json!(3))).unwrap_err().to_string();
+    assert!(e.contains("\"frames\"") && e.contains("burn_in, chains, episodes, window, windows_per_chain"), "{e}");
+    // Settings are set one by one; their domains are `validate`'s.
+    w.set(&setting("window", &json!(0))).unwrap();
+    assert!(w.validate().unwrap_err().to_string().contains("window"));
+    q.set(&setting("gamma", &json!(1))).unwrap();
+    assert!(q.validate().unwrap_err().to_string().contains("gamma"));
 }

@@ -1,13 +1,19 @@
 //! A policy and a world stepped from outside (`policy::agent`, `world::session`): the episode's
 //! rewards add up to the world's reward, bad decisions and observations are refused, and the
-//! same seeds give the same episodes.
+//! same seeds give the same episodes, on every registered world.
 
 use ceworld::policy::agent::Agent;
 use ceworld::world::session::Session;
-use ceworld::{AnyWorld, Error, TargetTracking, TrackingParams, random_policy};
+use ceworld::{AnyWorld, Error, World, random_policy, with_world};
+use serde_json::json;
 
 fn world() -> AnyWorld {
-    AnyWorld::TargetTracking(TargetTracking::with_params(TrackingParams { horizon: 30, ..Default::default() }).unwrap())
+    AnyWorld::from_json(&json!({"name": "target-tracking", "horizon": 30})).unwrap()
+}
+
+fn tiger(horizon: usize) -> AnyWorld {
+    let file = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+    AnyWorld::from_json(&json!({"name": "pomdp", "file": file, "horizon": horizon})).unwrap()
 }
 
 fn episode(seed: u64, agent: &mut Agent) -> (Vec<usize>, f64) {
@@ -29,8 +35,7 @@ fn episode(seed: u64, agent: &mut Agent) -> (Vec<usize>, f64) {
 
 #[test]
 fn episodes_are_reproducible_and_their_rewards_add_up() {
-    let AnyWorld::TargetTracking(w) = world() else { unreachable!() };
-    let policy = random_policy(&w, &[4, 3], 2).unwrap();
+    let policy = with_world!(&world(), w => random_policy(w, &[4, 3], 2)).unwrap();
     let (mut a, mut b) = (Agent::new(policy.clone(), 5), Agent::new(policy, 5));
     let first = episode(1, &mut a);
     assert_eq!(first, episode(1, &mut b));
@@ -48,8 +53,32 @@ fn bad_decisions_and_observations_are_refused() {
         session.step(3).unwrap();
     }
     assert!(matches!(session.step(3), Err(Error::InvalidArgument { name, .. }) if name == "step"));
-    let AnyWorld::TargetTracking(w) = world() else { unreachable!() };
-    let mut agent = Agent::new(random_policy(&w, &[2], 0).unwrap(), 0);
+    let mut agent = Agent::new(with_world!(&world(), w => random_policy(w, &[2], 0)).unwrap(), 0);
     assert!(matches!(agent.act(16), Err(Error::InvalidArgument { name, .. }) if name == "observation"));
     assert_eq!(agent.memory().len(), 1);
+}
+
+#[test]
+fn a_tabular_world_steps_too_and_a_cloned_session_goes_on_alike() {
+    let world = tiger(12);
+    let mut session = Session::start(&world, 3, 1);
+    let (decisions, observations) = with_world!(&world, w => (w.n_decisions(), w.n_observations()));
+    assert_eq!((session.t(), session.reward()), (1, 0.0));
+    assert!(session.observation() < observations);
+    for d in 0..5 {
+        session.step(d % decisions).unwrap();
+    }
+    let mut copy = session.clone();
+    assert!(format!("{copy:?}").contains("Stepper"));
+    let (mut total, mut over) = (session.reward(), false);
+    while !over {
+        let (y, gained, end) = session.step(0).unwrap();
+        assert_eq!(copy.step(0).unwrap(), (y, gained, end));
+        assert!(y < observations);
+        (total, over) = (total + gained, end);
+    }
+    assert_eq!(session.t(), 13);
+    assert!((total - session.reward()).abs() < 1e-9, "{total} != {}", session.reward());
+    assert_eq!(session.describe(), copy.describe());
+    assert!(matches!(session.step(0), Err(Error::InvalidArgument { name, .. }) if name == "step"));
 }

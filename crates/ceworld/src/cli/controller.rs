@@ -1,9 +1,10 @@
 //! `ceworld controller`: the cross-entropy method over deterministic controllers of any world,
 //! on exact values (a tabular world) or sampled ones (model §8).
 
-use crate::ce::controller::{ControllerConfig, Template, ValueKind, Valued, optimize_controller_with};
-use crate::progress::{LiveLine, Progress};
-use crate::{Flow, Result};
+use crate::Result;
+use crate::ce::controller::{ControllerConfig, Template, ValueKind};
+use crate::episodes::Episodes;
+use crate::run::{self, RunOptions};
 
 use crate::cli::{OutputArgs, WorldArgs, stop, world_from};
 
@@ -36,39 +37,35 @@ pub(crate) struct ControllerArgs {
 
 pub(crate) fn run_controller(args: &ControllerArgs) -> Result<()> {
     let world = world_from(&args.world)?;
-    let valued = Valued::of(&world, args.value)?;
-    let d = ControllerConfig::defaults_for(valued.kind());
-    let config = ControllerConfig {
-        samples: args.samples.unwrap_or(d.samples),
-        rho: args.rho.unwrap_or(d.rho),
-        template: args.template.unwrap_or(d.template),
-        ..args.config.clone()
-    };
-    config.validate()?;
+    crate::with_world!(&world, w => search_in(w, args))
+}
+
+/// `controller` in one world of the registry.
+fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
+    let (valued, config) = run::controller_setup(world, args.value, |config| {
+        *config = ControllerConfig {
+            samples: args.samples.unwrap_or(config.samples),
+            rho: args.rho.unwrap_or(config.rho),
+            template: args.template.unwrap_or(config.template),
+            ..args.config.clone()
+        };
+        Ok(())
+    })?;
     // The result is not lost to an unwritable --out found after the run.
     args.output.check::<crate::ce::controller::checkpoint::ControllerSearch>(&args.world.files())?;
     let checkpointing = args.output.checkpointing()?;
     stop::install();
-    let mut progress =
-        (!args.output.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
-    let outcome = optimize_controller_with(valued, &config, checkpointing.as_ref(), |r| {
-        if let Some(progress) = &mut progress {
-            progress.update(r);
-        }
-        if stop::requested() { Flow::Stop } else { Flow::Continue }
-    })?;
-    if let Some(progress) = progress {
-        progress.finish();
-    }
+    let options = RunOptions { progress: !args.output.quiet, checkpointing: checkpointing.as_ref(), stop: &stop::flow };
+    let outcome = run::controller(valued, &config, &options)?;
     let file = outcome.to_file(valued.episodes(), &config);
     args.output.save(&file, &outcome.history, outcome.checkpoint_error.as_deref())?;
-    let what = match (&outcome.evaluation, &world) {
+    let what = match (&outcome.evaluation, world.tabular()) {
         (Some(e), _) => {
             let d = crate::progress::decimals(e.std_error);
             let (mean, se) = (crate::progress::fixed(e.mean, d), crate::progress::fixed(e.std_error, d));
             format!("{mean} ± {se} on {} fresh episodes", e.episodes)
         }
-        (None, crate::AnyWorld::Pomdp(w)) if w.tables().gamma < 1.0 => {
+        (None, Some(w)) if w.tables().gamma < 1.0 => {
             format!("exact infinite-horizon value {:.6}", outcome.value)
         }
         (None, _) => format!("exact value at the horizon {:.6}", outcome.value),

@@ -5,20 +5,22 @@
 mod controller;
 mod output;
 mod qlearn;
+mod run;
 mod stop;
 
 use std::ffi::OsString;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::progress::{LiveLine, Progress, decimals, fixed};
+use crate::progress::{decimals, fixed};
+use crate::run::RunOptions;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use output::OutputArgs;
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
 
 use crate::thread_pool;
-use crate::{AnyWorld, CeConfig, Error, Flow, Init, PolicyFile, Result, World, evaluate, optimize_with};
+use crate::{AnyWorld, CeConfig, Error, Init, PolicyFile, Result, World, evaluate};
 
 /// Cross-entropic learning of hierarchical-HMM policies (Dambreville's method) for the
 /// target-tracking world of model §4.
@@ -108,6 +110,10 @@ enum Command {
     /// and/or HHMM policies: (a) windows from the initial state, (b) consecutive windows of long
     /// continuing runs after a burn-in; worst, mean, best, also as % of 69.
     QlearnEval(QlearnEvalArgs),
+    /// Run an optimiser given by its iteration step, by name (random-search: random
+    /// deterministic controllers, the best kept), its settings as --set KEY=VALUE; progress,
+    /// checkpoints, --out and --history as for every optimiser.
+    Run(run::RunArgs),
 }
 
 /// The example at the end of `ceworld qlearn --help` (a test runs it as written).
@@ -313,18 +319,9 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
             config.seed
         );
     }
-    let mut progress =
-        (!args.output.quiet).then(|| Progress::new(config.patience, config.restarts, LiveLine::stderr()));
     let checkpointing = args.output.checkpointing()?;
-    let result = optimize_with(world, initial, &config, checkpointing.as_ref(), |r| {
-        if let Some(progress) = &mut progress {
-            progress.update(r);
-        }
-        if stop::requested() { Flow::Stop } else { Flow::Continue }
-    })?;
-    if let Some(progress) = progress {
-        progress.finish();
-    }
+    let options = RunOptions { progress: !args.output.quiet, checkpointing: checkpointing.as_ref(), stop: &stop::flow };
+    let result = crate::run::optimize(world, initial, &config, &options)?;
     args.output.save(&result.to_file(world, &config), &result.history, result.checkpoint_error.as_deref())?;
     let e = &result.evaluation;
     if config.restarts > 1 {
@@ -371,9 +368,10 @@ fn run_show(
         return Err(Error::invalid("--prune", format!("{prune} (expected a probability 0 <= p < 1)")));
     }
     let f = PolicyFile::load(file)?;
-    let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
-        return Err(Error::invalid("show", "the policy's world is not tabular (expected a pomdp world)"));
-    };
+    let world = AnyWorld::from_json(&f.world)?;
+    let world = world
+        .tabular()
+        .ok_or_else(|| Error::invalid("show", "the policy's world is not tabular (expected a pomdp world)"))?;
     let model_file = PathBuf::from(&world.params().file);
     let outputs: Vec<(&str, &std::path::Path)> =
         [("--json", json), ("--pg", pg), ("--dot", dot)].into_iter().filter_map(|(o, p)| Some((o, p?))).collect();
@@ -395,8 +393,8 @@ fn run_show(
                 "stochastic policy: {} holds its most likely controller ({} nodes, each law at its likeliest outcome): exact value {:.4} (the stochastic policy's: {:.4})",
                 path.display(),
                 controller.nodes.len(),
-                exact_value(&world, &likely)?,
-                exact_value(&world, &f.policy)?
+                exact_value(world, &likely)?,
+                exact_value(world, &f.policy)?
             );
         }
     }
@@ -416,14 +414,15 @@ fn run(command: Command) -> Result<()> {
         Command::Controller(args) => controller::run_controller(&args),
         Command::Evaluate { file, exact: true, tolerance, .. } => {
             let f = PolicyFile::load(&file)?;
-            let AnyWorld::Pomdp(world) = AnyWorld::from_json(&f.world)? else {
-                return Err(Error::invalid("--exact", "the policy's world is not tabular (expected a pomdp world)"));
-            };
+            let world = AnyWorld::from_json(&f.world)?;
+            let world = world.tabular().ok_or_else(|| {
+                Error::invalid("--exact", "the policy's world is not tabular (expected a pomdp world)")
+            })?;
             let started = Instant::now();
-            let h = crate::exact::finite_horizon(&world, &f.policy, None)?;
+            let h = crate::exact::finite_horizon(world, &f.policy, None)?;
             println!("{}: exact expected reward at horizon {}: {:.6}", file.display(), h.steps, h.value);
             if world.tables().gamma < 1.0 {
-                let v = crate::exact::infinite_horizon(&world, &f.policy, tolerance)?;
+                let v = crate::exact::infinite_horizon(world, &f.policy, tolerance)?;
                 println!(
                     "{}: exact infinite-horizon value (discount {}): {:.6} (± {:.1e}, {} steps)",
                     file.display(),
@@ -469,6 +468,7 @@ fn run(command: Command) -> Result<()> {
         }
         Command::Qlearn(args) => run_qlearn(&args),
         Command::QlearnEval(args) => run_qlearn_eval(&args),
+        Command::Run(args) => run::run_named(&args),
     }
 }
 

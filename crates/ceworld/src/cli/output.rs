@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use serde_json::Value;
 
-use crate::ce::resume::{Checkpoint, Resumable};
+use crate::ce::resume::{Checkpoint, Peek, Resumable};
 use crate::cli::CheckpointArgs;
 use crate::error::{Error, Result};
 use crate::policy::file::PolicyFile;
@@ -50,9 +50,14 @@ impl OutputArgs {
     /// kind; warns of a checkpoint resumed unverified. `K` is the optimiser whose checkpoint
     /// --checkpoint names.
     pub fn check<K: Resumable>(&self, inputs: &[(&str, &Path)]) -> Result<()> {
+        self.check_peeked(inputs, Checkpoint::<K>::peek)
+    }
+
+    /// [`OutputArgs::check`], the checkpoint read by `peek`.
+    pub fn check_peeked(&self, inputs: &[(&str, &Path)], peek: fn(&Path) -> Result<Peek>) -> Result<()> {
         let checkpoint = self.checkpoint.checkpoint.as_deref();
         let resumed = match checkpoint {
-            Some(path) if self.checkpoint.resuming() => Some(Checkpoint::<K>::peek(path)?),
+            Some(path) if self.checkpoint.resuming() => Some(peek(path)?),
             _ => None,
         };
         let mut outputs = vec![("--out", self.out.as_path())];

@@ -6,10 +6,9 @@ use std::time::Instant;
 
 use serde_json::Value;
 
-use crate::progress::LiveLine;
 use crate::qlearn::{AnyLearner, KnownState, PAPER_REFERENCE, Ties, evaluate_policy_windows, percent};
 use crate::{
-    AnyWorld, Error, Flow, PolicyFile, QConfig, QLearner, Result, WindowConfig, WindowReport, thread_pool, with_learner,
+    AnyWorld, Error, PolicyFile, QConfig, QLearner, Result, WindowConfig, WindowReport, thread_pool, with_learner,
 };
 
 use super::{WorldArgs, world_from};
@@ -17,21 +16,8 @@ use super::{WorldArgs, world_from};
 /// How windows are drawn for the paper's comparison.
 #[derive(clap::Args)]
 pub(crate) struct WindowArgs {
-    /// Steps per window (the paper: 100).
-    #[arg(long, default_value_t = WindowConfig::default().window)]
-    window: usize,
-    /// (a) Windows from the initial state: one per fresh start of the world.
-    #[arg(long, default_value_t = WindowConfig::default().episodes)]
-    episodes: usize,
-    /// (b) Independent continuing runs, each from a fresh start.
-    #[arg(long, default_value_t = WindowConfig::default().chains)]
-    chains: usize,
-    /// (b) Steps each continuing run makes before its first window.
-    #[arg(long, default_value_t = WindowConfig::default().burn_in)]
-    burn_in: u64,
-    /// (b) Consecutive windows per continuing run after the burn-in.
-    #[arg(long, default_value_t = WindowConfig::default().windows_per_chain)]
-    windows_per_chain: usize,
+    #[command(flatten)]
+    config: WindowConfig,
     /// Seed of the evaluation runs.
     #[arg(long, default_value_t = 0)]
     eval_seed: u64,
@@ -41,18 +27,6 @@ pub(crate) struct WindowArgs {
     /// Worker threads for the evaluation (default: one per core; results do not depend on it).
     #[arg(long)]
     threads: Option<usize>,
-}
-
-impl WindowArgs {
-    fn config(&self) -> WindowConfig {
-        WindowConfig {
-            window: self.window,
-            episodes: self.episodes,
-            chains: self.chains,
-            burn_in: self.burn_in,
-            windows_per_chain: self.windows_per_chain,
-        }
-    }
 }
 
 #[derive(clap::Args)]
@@ -65,19 +39,8 @@ pub(crate) struct QlearnArgs {
     /// until the table has this many.
     #[arg(long, default_value = "1e9", value_parser = parse_count)]
     iterations: u64,
-    /// Seed of the run's random stream.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Discount gamma in [0, 1).
-    #[arg(long, default_value_t = crate::qlearn::GAMMA)]
-    gamma: f64,
-    /// Learning rate alpha in (0, 1].
-    #[arg(long, default_value_t = crate::qlearn::ALPHA)]
-    alpha: f64,
-    /// How greedy ties are broken, in learning and in the evaluated greedy policy: "random"
-    /// (uniform among the best actions) or "lowest" (the lowest index).
-    #[arg(long, default_value = Ties::Random.as_str(), value_parser = ["random", "lowest"])]
-    ties: String,
+    #[command(flatten)]
+    config: QConfig,
     /// Where to save the learnt table (binary: a JSON header, then little-endian f32 values).
     #[arg(long, default_value = "qtable.bin", value_name = "FILE")]
     out: PathBuf,
@@ -111,9 +74,9 @@ pub(crate) struct QlearnEvalArgs {
     /// with levels [16] from `optimize --case 3 --levels 16`; repeatable.
     #[arg(long = "ce-policy", value_name = "FILE.json")]
     ce_policies: Vec<PathBuf>,
-    /// How the greedy policy breaks ties: "random" or "lowest" (default: as in learning).
-    #[arg(long, value_parser = ["random", "lowest"])]
-    ties: Option<String>,
+    /// How the greedy policy breaks ties (default: as in learning).
+    #[arg(long, value_enum)]
+    ties: Option<Ties>,
     #[command(flatten)]
     windows: WindowArgs,
     /// Also write the reports as JSON to this file.
@@ -171,9 +134,8 @@ fn open_learner(
 }
 
 pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
-    let config = QConfig { gamma: args.gamma, alpha: args.alpha, seed: args.seed, ties: Ties::parse(&args.ties)? };
-    config.validate()?;
-    args.windows.config().validate()?;
+    args.config.validate()?;
+    args.windows.config.validate()?;
     let checkpoint = args.checkpoint.clone().unwrap_or_else(|| args.out.clone());
     // The table is its own checkpoint unless --checkpoint names another file; then --out is a
     // result like any other (replaced by --overwrite, or by --resume of the run that writes it).
@@ -188,14 +150,14 @@ pub(crate) fn run_qlearn(args: &QlearnArgs) -> Result<()> {
             format!("{} exists: pass --resume to continue its run or --overwrite to replace it", args.out.display()),
         ));
     }
-    let mut learner = open_learner(args, world_from(&args.world)?, config, &checkpoint)?;
+    let mut learner = open_learner(args, world_from(&args.world)?, args.config.clone(), &checkpoint)?;
     let interrupted = with_learner!(&mut learner, q => train(args, q, &checkpoint))?;
     if interrupted {
         println!("continue with: {} qlearn --resume --checkpoint {} ...", super::program(), checkpoint.display());
     } else if !args.no_eval {
         let pool = thread_pool(args.windows.threads)?;
         let report = pool.install(|| {
-            learner.evaluate_windows(&learner.world(), None, &args.windows.config(), args.windows.eval_seed)
+            learner.evaluate_windows(&learner.world(), None, &args.windows.config, args.windows.eval_seed)
         })?;
         let (updates, ties) = with_learner!(&learner, q => (q.updates(), q.config().ties));
         let name = format!("Q-policy (greedy, {} ties, {:.1e} updates)", ties.as_str(), updates as f64);
@@ -226,16 +188,9 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
             args.checkpoint_every
         );
     }
-    let mut line = (!args.quiet).then(LiveLine::stderr);
-    let outcome = learner.train(args.iterations, Some(checkpoint), Some(args.checkpoint_every), |p| {
-        if let Some(line) = &mut line {
-            line.update(p.line());
-        }
-        if super::stop::requested() { Flow::Stop } else { Flow::Continue }
-    })?;
-    if let Some(line) = line {
-        line.finish();
-    }
+    let options = crate::run::RunOptions { progress: !args.quiet, checkpointing: None, stop: &super::stop::flow };
+    let outcome =
+        crate::run::qlearn(learner, args.iterations, Some(checkpoint), Some(args.checkpoint_every), &options)?;
     if args.out != checkpoint {
         if !outcome.interrupted {
             learner.save(&args.out)?;
@@ -291,7 +246,7 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
             "nothing to evaluate (expected a TABLE and/or --ce-policy FILE.json)",
         ));
     }
-    let config = args.windows.config();
+    let config = &args.windows.config;
     config.validate()?;
     let mut inputs: Vec<(&str, &std::path::Path)> = args.table.iter().map(|t| ("TABLE", t.as_path())).collect();
     inputs.extend(args.ce_policies.iter().map(|p| ("--ce-policy", p.as_path())));
@@ -305,11 +260,8 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
         let learner = AnyLearner::load(path)?;
         let (updates, learnt_ties) = with_learner!(&learner, q => (q.updates(), q.config().ties));
         eprintln!("{}: {} updates, loaded in {:.1}s", path.display(), updates, started.elapsed().as_secs_f64());
-        let ties = match &args.ties {
-            Some(t) => Ties::parse(t)?,
-            None => learnt_ties,
-        };
-        let report = pool.install(|| learner.evaluate_windows(&learner.world(), Some(ties), &config, seed))?;
+        let ties = args.ties.unwrap_or(learnt_ties);
+        let report = pool.install(|| learner.evaluate_windows(&learner.world(), Some(ties), config, seed))?;
         reports.push((
             format!(
                 "Q-policy (greedy, {} ties; learnt with {} ties, {:.1e} updates)",
@@ -323,7 +275,7 @@ pub(crate) fn run_qlearn_eval(args: &QlearnEvalArgs) -> Result<()> {
     for path in &args.ce_policies {
         let file = PolicyFile::load(path)?;
         let world = AnyWorld::from_json(&file.world)?;
-        let report = pool.install(|| evaluate_policy_windows(&world, &file.policy, &config, seed))?;
+        let report = pool.install(|| evaluate_policy_windows(&world, &file.policy, config, seed))?;
         reports.push((format!("HHMM {:?} ({})", file.policy.levels(), path.display()), report));
     }
     print_windows(&reports, args.windows.reference);

@@ -50,6 +50,11 @@ pub(crate) fn requested() -> bool {
     RECEIVED.load(Ordering::SeqCst) != 0
 }
 
+/// For a run's [`crate::run::RunOptions::stop`]: stop once a stop signal was received.
+pub(crate) fn flow() -> crate::Flow {
+    if requested() { crate::Flow::Stop } else { crate::Flow::Continue }
+}
+
 /// The exit status after a stop signal: 128 + its number (130 for SIGINT, 143 for SIGTERM).
 pub(crate) fn exit_code() -> Option<u8> {
     match RECEIVED.load(Ordering::SeqCst) {

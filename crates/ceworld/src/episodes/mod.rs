@@ -15,6 +15,7 @@ use crate::policy::Hhmm;
 use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream, stream_key};
 use crate::world::World;
+use crate::world::pomdp::PomdpWorld;
 use run::{run_controller, run_recorded, run_with};
 
 /// The random streams of a set of episodes: episode `k` draws from `(seed, purpose, iteration, k)`.
@@ -100,11 +101,22 @@ pub trait Episodes: Sync {
     fn remote(&self) -> Option<&dyn Remote> {
         None
     }
+    /// The tabular world (model §7) these episodes are of, where they are run here by the
+    /// engine from one ([`World::tabular`]): what exact values need. `None` by default.
+    fn tabular(&self) -> Option<&PomdpWorld> {
+        None
+    }
 }
 
 /// Episodes sampled elsewhere: what stays there (the episodes, their records) is asked for by
 /// the episodes' numbers alone (model §3, the elite's counts).
 pub trait Remote: Sync {
+    /// Whether the world sampled there is tabular, so that [`Remote::exact_values`] can value
+    /// controllers exactly. By default not.
+    fn tabular(&self) -> bool {
+        false
+    }
+
     /// The sampled counts (laid out as `policy`'s flat tables) of episodes `episodes` of
     /// `streams` under `policy`: those that their records give, bit for bit
     /// ([`crate::ce::rerun::rerun_counts`] is how a worker takes them).
@@ -180,6 +192,10 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
     fn remote(&self) -> Option<&dyn Remote> {
         self.episodes.remote()
     }
+
+    fn tabular(&self) -> Option<&PomdpWorld> {
+        self.episodes.tabular()
+    }
 }
 
 impl<W: World> Episodes for W {
@@ -225,6 +241,10 @@ impl<W: World> Episodes for W {
             *value = run_controller(self, &controllers[i / episodes], &mut streams.episode(i % episodes));
         });
         Ok(())
+    }
+
+    fn tabular(&self) -> Option<&PomdpWorld> {
+        World::tabular(self)
     }
 }
 

@@ -61,6 +61,16 @@ impl Recorded<'_> {
     }
 }
 
+/// `r_1 + γ r_2 + γ² r_3 + ...`, summed in step order.
+pub fn discounted(rewards: &[f64], gamma: f64) -> f64 {
+    let (mut total, mut factor) = (0.0, 1.0);
+    for r in rewards {
+        total += factor * r;
+        factor *= gamma;
+    }
+    total
+}
+
 /// A world that steps a batch of episodes at once, in lockstep.
 pub trait BatchWorld: Send {
     /// Observations, decisions, most steps per episode.
@@ -83,9 +93,14 @@ pub trait BatchWorld: Send {
     {
         f()
     }
-    /// The value `V` of a finished episode: by default the sum of its rewards.
+    /// The discount of the default [`BatchWorld::score`] (1: none).
+    fn discount(&self) -> f64 {
+        1.0
+    }
+    /// The value `V` of a finished episode: by default the sum of its rewards, discounted by
+    /// [`BatchWorld::discount`] (`r_1 + γ r_2 + γ² r_3 + ...`).
     fn score(&mut self, episode: &Recorded<'_>) -> Result<f64> {
-        Ok(episode.rewards.iter().sum())
+        Ok(discounted(episode.rewards, self.discount()))
     }
 }
 

@@ -1,14 +1,17 @@
 //! Q-learning on any registered world that can run it (a [`KnownState`] world), its kind known
 //! at run time: what the CLI and the Python bindings hold, so that neither names a world.
 //!
-//! Adding a world with a known state: one variant of [`AnyLearner`] and one arm in each match
-//! below (worlds without one need nothing here: they are refused by name).
+//! Which worlds have a known state is read from the registry (capability `q_learning`, reached
+//! through [`with_known_state!`](crate::with_known_state)): nothing here names a world but the
+//! learners. Adding a world with a known state: one variant of [`AnyLearner`], its arm of
+//! [`with_learner!`](crate::with_learner) and its `From` impl (worlds without one need nothing
+//! here: they are refused by name).
 
 use std::path::Path;
 
 use serde_json::Value;
 
-use super::{QConfig, QLearner, Ties, WindowConfig, WindowReport, evaluate_windows, read_header};
+use super::{KnownState, QConfig, QLearner, Ties, WindowConfig, WindowReport, evaluate_windows, read_header};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
 use crate::world::registry::AnyWorld;
@@ -17,6 +20,12 @@ use crate::world::registry::AnyWorld;
 pub enum AnyLearner {
     /// On the target-tracking world.
     TargetTracking(QLearner<crate::world::tracking::TargetTracking>),
+}
+
+impl From<QLearner<crate::world::tracking::TargetTracking>> for AnyLearner {
+    fn from(learner: QLearner<crate::world::tracking::TargetTracking>) -> AnyLearner {
+        AnyLearner::TargetTracking(learner)
+    }
 }
 
 /// Runs `$body` with `$q` bound to the concrete [`QLearner`] inside an [`AnyLearner`].
@@ -41,10 +50,7 @@ impl AnyLearner {
     /// A fresh run with a zero table (refused when the world has no known state or the table
     /// would not fit in memory).
     pub fn new(world: AnyWorld, config: QConfig) -> Result<AnyLearner> {
-        match world {
-            AnyWorld::TargetTracking(w) => Ok(AnyLearner::TargetTracking(QLearner::new(w, config)?)),
-            other @ AnyWorld::Pomdp(_) => Err(no_known_state(&other)),
-        }
+        crate::with_known_state!(world, w => Ok(QLearner::new(w, config)?.into()), other => Err(no_known_state(&other)))
     }
 
     /// Reads a Q-table file, rebuilding its world from the header through the registry.
@@ -54,10 +60,7 @@ impl AnyLearner {
         let world = AnyWorld::from_json(header.get("world").unwrap_or(&Value::Null)).map_err(|e| {
             Error::PolicyFormat { path: Some(path.to_path_buf()), message: format!("the header's world: {e}") }
         })?;
-        match world {
-            AnyWorld::TargetTracking(w) => Ok(AnyLearner::TargetTracking(QLearner::load(path, w)?)),
-            other @ AnyWorld::Pomdp(_) => Err(no_known_state(&other)),
-        }
+        crate::with_known_state!(world, w => Ok(QLearner::load(path, w)?.into()), other => Err(no_known_state(&other)))
     }
 
     /// Reads the run saved in `path` to continue it, checking that it was made in `world` with
@@ -85,9 +88,7 @@ impl AnyLearner {
 
     /// The run's world, as a registered world.
     pub fn world(&self) -> AnyWorld {
-        match self {
-            AnyLearner::TargetTracking(q) => AnyWorld::TargetTracking(q.world().clone()),
-        }
+        crate::with_learner!(self, q => AnyWorld::from(q.world().clone()))
     }
 
     /// The greedy policy of the table (ties broken by `ties`, or as in learning) evaluated on
@@ -99,18 +100,31 @@ impl AnyLearner {
         config: &WindowConfig,
         seed: u64,
     ) -> Result<WindowReport> {
-        match (self, world) {
-            (AnyLearner::TargetTracking(q), AnyWorld::TargetTracking(w)) => {
-                let greedy = super::Greedy { table: q.table(), ties: ties.unwrap_or(q.config().ties) };
-                evaluate_windows(w, &greedy, config, seed)
-            }
-            (_, other) => Err(Error::Mismatch(format!(
-                "the Q table was learnt in a {} world, not {}",
-                self.world().name(),
-                other.name()
-            ))),
-        }
+        crate::with_learner!(self, q => greedy_windows(q, world, ties, config, seed))
     }
+}
+
+/// The greedy policy of `learner`'s table evaluated on windows of `world`, which must be of the
+/// learner's kind (see [`AnyLearner::evaluate_windows`]).
+fn greedy_windows<W: KnownState + Clone + 'static>(
+    learner: &QLearner<W>,
+    world: &AnyWorld,
+    ties: Option<Ties>,
+    config: &WindowConfig,
+    seed: u64,
+) -> Result<WindowReport>
+where
+    AnyWorld: From<W>,
+{
+    let Some(w) = world.downcast_ref::<W>() else {
+        return Err(Error::Mismatch(format!(
+            "the Q table was learnt in a {} world, not {}",
+            AnyWorld::from(learner.world().clone()).name(),
+            world.name()
+        )));
+    };
+    let greedy = super::Greedy { table: learner.table(), ties: ties.unwrap_or(learner.config().ties) };
+    evaluate_windows(w, &greedy, config, seed)
 }
 
 /// An HHMM policy evaluated on windows of a continuing run of any registered world that can run
@@ -121,11 +135,8 @@ pub fn evaluate_policy_windows(
     config: &WindowConfig,
     seed: u64,
 ) -> Result<WindowReport> {
-    match world {
-        AnyWorld::TargetTracking(w) => evaluate_windows(w, policy, config, seed),
-        other @ AnyWorld::Pomdp(_) => Err(Error::invalid(
-            "world",
-            format!("{} (the {} world cannot run as a continuing task)", other.to_json(), other.name()),
-        )),
-    }
+    crate::with_known_state!(world, w => evaluate_windows(w, policy, config, seed), other => Err(Error::invalid(
+        "world",
+        format!("{} (the {} world cannot run as a continuing task)", other.to_json(), other.name()),
+    )))
 }

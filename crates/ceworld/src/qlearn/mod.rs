@@ -49,6 +49,7 @@
 use crate::error::Error;
 use crate::error::Result;
 use crate::rng::EngineRng;
+use crate::settings::{Setting, Settings};
 use crate::world::World;
 use serde::{Deserialize, Serialize};
 
@@ -109,6 +110,7 @@ pub fn epsilon(t: u64) -> f64 {
 
 /// How a greedy action is chosen among actions of equal value.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Ties {
     /// Uniformly at random among the maximal actions.
@@ -140,17 +142,37 @@ impl Ties {
     }
 }
 
-/// The learning settings; `Default` is the paper's (`γ = 0.99`, `α = 0.1`), random ties.
+/// The learning settings; `Default` is the paper's (`γ = 0.99`, `α = 0.1`), random ties. The
+/// one home of each setting: its doc is the CLI's help (`ceworld qlearn --help`), its name the
+/// Python keyword ([`Settings::set`]) and the Q-table file's header key.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct QConfig {
-    /// Discount `γ` in `[0, 1)`.
+    /// Discount gamma in [0, 1).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = GAMMA))]
     pub gamma: f64,
-    /// Learning rate `α` in `(0, 1]`.
+    /// Learning rate alpha in (0, 1].
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ALPHA))]
     pub alpha: f64,
     /// Seed of the run's random stream.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = 0))]
     pub seed: u64,
-    /// How greedy ties are broken, in learning and in the greedy policy.
+    /// How greedy ties are broken, in learning and in the evaluated greedy policy.
+    #[cfg_attr(feature = "cli", arg(long, value_enum, default_value_t = Ties::Random))]
     pub ties: Ties,
+}
+
+impl Settings for QConfig {
+    fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "gamma" => self.gamma = s.real()?,
+            "alpha" => self.alpha = s.real()?,
+            "seed" => self.seed = s.seed()?,
+            "ties" => self.ties = s.choice(Ties::parse)?,
+            other => return Err(self.unknown(other)),
+        }
+        Ok(())
+    }
 }
 
 impl Default for QConfig {

@@ -18,6 +18,7 @@ use crate::policy::Hhmm;
 use crate::rng::EngineRng;
 use crate::rng::Purpose;
 use crate::rng::stream;
+use crate::settings::{Setting, Settings};
 use crate::world::World;
 
 /// A policy that can be run step after step for as long as wanted (a continuing run).
@@ -92,25 +93,46 @@ impl<W: KnownState> WindowPolicy<W> for Greedy<'_> {
     }
 }
 
-/// How to cut runs into windows (the paper: 100 steps).
+/// How to cut runs into windows (the paper: 100 steps). The one home of each setting: its doc
+/// is the CLI's help (`ceworld qlearn-eval --help`), its name the Python keyword
+/// ([`Settings::set`]) and the report's key.
 #[derive(Clone, Debug, PartialEq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct WindowConfig {
-    /// Steps per window.
+    /// Steps per window (the paper: 100).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = WindowConfig::default().window))]
     pub window: usize,
-    /// (a) Windows from the initial state: one per fresh start (target drawn as in the world's
-    /// `reset`), stream `(seed, Evaluate, 0, k)`.
+    /// (a) Windows from the initial state: one per fresh start of the world.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = WindowConfig::default().episodes))]
     pub episodes: usize,
-    /// (b) Independent continuing runs, each from a fresh start, stream `(seed, Evaluate, 1, k)`.
+    /// (b) Independent continuing runs, each from a fresh start.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = WindowConfig::default().chains))]
     pub chains: usize,
     /// (b) Steps each continuing run makes before its first window ("after many cycles").
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = WindowConfig::default().burn_in))]
     pub burn_in: u64,
-    /// (b) Consecutive windows taken from each continuing run after its burn-in.
+    /// (b) Consecutive windows per continuing run after the burn-in.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = WindowConfig::default().windows_per_chain))]
     pub windows_per_chain: usize,
 }
 
 impl Default for WindowConfig {
     fn default() -> Self {
         WindowConfig { window: 100, episodes: 10_000, chains: 16, burn_in: 100_000, windows_per_chain: 10_000 }
+    }
+}
+
+impl Settings for WindowConfig {
+    fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "window" => self.window = s.count()?,
+            "episodes" => self.episodes = s.count()?,
+            "chains" => self.chains = s.count()?,
+            "burn_in" => self.burn_in = s.seed()?,
+            "windows_per_chain" => self.windows_per_chain = s.count()?,
+            other => return Err(self.unknown(other)),
+        }
+        Ok(())
     }
 }
 
@@ -172,8 +194,10 @@ fn run_steps<W: ContinuingWorld, P: WindowPolicy<W>>(
 }
 
 /// Evaluates `policy` on windows of the continuing task: (a) one window from each of
-/// `episodes` fresh starts, (b) consecutive windows of `chains` long runs after a burn-in; in
-/// parallel on the current rayon pool, reproducible from `seed` whatever the thread count.
+/// `episodes` fresh starts (the target drawn as in the world's `reset`), start `k` on the
+/// stream `(seed, Evaluate, 0, k)`, (b) consecutive windows of `chains` long runs after a
+/// burn-in, run `k` on the stream `(seed, Evaluate, 1, k)`; in parallel on the current rayon
+/// pool, reproducible from `seed` whatever the thread count.
 ///
 /// For an HHMM, (a) gives exactly the rewards of [`crate::evaluate::rewards`] with the same
 /// seed when `window` is the world's horizon.

@@ -50,6 +50,12 @@ pub trait World: Sync {
     /// The world's name and every parameter, as stored in policy files (model §6).
     fn to_json(&self) -> serde_json::Value;
 
+    /// The world as a tabular POMDP (model §7), where it is one: what exact values, policy
+    /// graphs and controller values on exact values need. `None` by default.
+    fn tabular(&self) -> Option<&pomdp::PomdpWorld> {
+        None
+    }
+
     /// The best mean reward any policy can reach, where the world knows it exactly.
     fn exact_optimum(&self) -> crate::Result<f64> {
         Err(crate::Error::invalid("world", format!("{} (no exact optimum is known for this world)", self.to_json())))

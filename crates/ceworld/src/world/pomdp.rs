@@ -338,6 +338,10 @@ impl Tables {
 impl World for PomdpWorld {
     type State = PomdpState;
 
+    fn tabular(&self) -> Option<&PomdpWorld> {
+        Some(self)
+    }
+
     fn n_observations(&self) -> usize {
         self.tables.n_observations() + 1
     }

@@ -1,8 +1,14 @@
 //! The registry of worlds: a world's name, as written in policy files (model §6) and on the
 //! command line, mapped to its constructor. Everything above the core reaches worlds through it.
 //!
-//! Adding a world: its file in `world/`, then here one variant of [`AnyWorld`], one row of
-//! [`REGISTRY`] and one arm of [`with_world!`](crate::with_world).
+//! What a world can do beyond being sampled and stepped is data on its row
+//! ([`Capabilities`]), read where it is needed: nothing outside this file names a world.
+//!
+//! Adding a world: its file in `world/`, then here one variant of [`AnyWorld`] with its `From`
+//! impl and its arm of [`AnyWorld::name`], one row of [`REGISTRY`] (its capabilities included)
+//! and one arm of [`with_world!`](crate::with_world). A world with a known state (capability
+//! `q_learning`) also takes one arm of [`with_known_state!`](crate::with_known_state), its
+//! `qlearn::KnownState` impl and one variant of `qlearn::AnyLearner`.
 
 use serde_json::{Map, Value};
 
@@ -24,6 +30,20 @@ pub enum AnyWorld {
     Pomdp(PomdpWorld),
 }
 
+/// What a registered world can do beyond being sampled and stepped from outside (which every
+/// registered world can: `world::session`). Plain data on its [`Entry`]; a unit test checks
+/// that it agrees with what the world does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Capabilities {
+    /// A tabular POMDP (model §7): exact values, policy graphs, controller values on exact
+    /// values. [`AnyWorld::tabular`] gives its model.
+    pub tabular: bool,
+    /// A continuing task whose state the learner can index (`qlearn::KnownState`): Q-learning
+    /// and the evaluation of policies on windows of a continuing run.
+    /// [`with_known_state!`](crate::with_known_state) gives it as its concrete type.
+    pub q_learning: bool,
+}
+
 /// One registered world.
 pub struct Entry {
     /// The name in policy files and on the command line.
@@ -32,6 +52,20 @@ pub struct Entry {
     pub defaults: fn() -> Map<String, Value>,
     /// The world from a complete parameter object, checked.
     pub build: fn(&Map<String, Value>) -> Result<AnyWorld>,
+    /// What the world can do beyond being sampled and stepped.
+    pub capabilities: Capabilities,
+}
+
+impl From<TargetTracking> for AnyWorld {
+    fn from(world: TargetTracking) -> AnyWorld {
+        AnyWorld::TargetTracking(world)
+    }
+}
+
+impl From<PomdpWorld> for AnyWorld {
+    fn from(world: PomdpWorld) -> AnyWorld {
+        AnyWorld::Pomdp(world)
+    }
 }
 
 /// The world the command line uses when none is named: the paper's.
@@ -42,14 +76,14 @@ pub const REGISTRY: &[Entry] = &[
     Entry {
         name: TargetTracking::NAME,
         defaults: || object(serde_json::to_value(TrackingParams::default()).expect("parameters serialise")),
-        build: |params| {
-            Ok(AnyWorld::TargetTracking(TargetTracking::with_params(deserialize(TargetTracking::NAME, params)?)?))
-        },
+        build: |params| Ok(TargetTracking::with_params(deserialize(TargetTracking::NAME, params)?)?.into()),
+        capabilities: Capabilities { tabular: false, q_learning: true },
     },
     Entry {
         name: PomdpWorld::NAME,
         defaults: || object(serde_json::to_value(PomdpParams::default()).expect("parameters serialise")),
-        build: |params| Ok(AnyWorld::Pomdp(PomdpWorld::with_params(deserialize(PomdpWorld::NAME, params)?)?)),
+        build: |params| Ok(PomdpWorld::with_params(deserialize(PomdpWorld::NAME, params)?)?.into()),
+        capabilities: Capabilities { tabular: true, q_learning: false },
     },
 ];
 
@@ -113,6 +147,22 @@ impl AnyWorld {
         }
     }
 
+    /// The world's row of [`REGISTRY`].
+    pub fn entry(&self) -> &'static Entry {
+        entry(self.name()).expect("every variant of AnyWorld has its row in REGISTRY")
+    }
+
+    /// What the world can do beyond being sampled and stepped (its row's).
+    pub fn capabilities(&self) -> Capabilities {
+        self.entry().capabilities
+    }
+
+    /// The world inside, as its concrete type `W`, where it is one (generic code that holds a
+    /// `W` and is given an [`AnyWorld`] that should be of the same kind).
+    pub fn downcast_ref<W: World + 'static>(&self) -> Option<&W> {
+        crate::with_world!(self, w => (w as &dyn std::any::Any).downcast_ref::<W>())
+    }
+
     /// The world of a policy file's `"world"` object: its `"name"` and its parameters (missing
     /// ones take their defaults; unknown ones are an error).
     pub fn from_json(value: &Value) -> Result<AnyWorld> {
@@ -124,6 +174,11 @@ impl AnyWorld {
             ));
         }
         Self::with_params(name, &params)
+    }
+
+    /// The world as a tabular POMDP, where it is one ([`World::tabular`]).
+    pub fn tabular(&self) -> Option<&PomdpWorld> {
+        crate::with_world!(self, w => w.tabular())
     }
 
     /// The world's name and every parameter, as stored in policy files.
@@ -140,6 +195,22 @@ macro_rules! with_world {
         match $world {
             $crate::world::registry::AnyWorld::TargetTracking($w) => $body,
             $crate::world::registry::AnyWorld::Pomdp($w) => $body,
+        }
+    };
+}
+
+/// Runs `$body` with `$w` bound to the concrete world inside an [`AnyWorld`] where that world
+/// has a known state (capability `q_learning`: it implements `qlearn::KnownState`), else
+/// `$otherwise` with `$other` bound to the [`AnyWorld`] itself: how Q-learning reaches the
+/// worlds it can run on without naming them. Its arms are the worlds whose row sets
+/// `q_learning` (a unit test checks that they agree).
+#[macro_export]
+macro_rules! with_known_state {
+    ($world:expr, $w:ident => $body:expr, $other:ident => $otherwise:expr) => {
+        match $world {
+            $crate::world::registry::AnyWorld::TargetTracking($w) => $body,
+            #[allow(unreachable_patterns)]
+            $other => $otherwise,
         }
     };
 }
@@ -244,6 +315,48 @@ mod tests {
         assert_eq!(AnyWorld::from_json(&world.to_json()).unwrap(), world);
         assert_eq!(crate::with_world!(&world, w => w.horizon()), 50);
         assert_eq!(names(), ["target-tracking", "pomdp"]);
+    }
+
+    /// Each registered world, built with its defaults (and a model file where it needs one).
+    fn every_world() -> Vec<AnyWorld> {
+        let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+        REGISTRY
+            .iter()
+            .map(|entry| {
+                let mut params = Map::new();
+                if (entry.defaults)().contains_key("file") {
+                    params.insert("file".into(), tiger.clone().into());
+                }
+                AnyWorld::with_params(entry.name, &params).unwrap_or_else(|e| panic!("{}: {e}", entry.name))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn capabilities_agree_with_what_each_world_does() {
+        let worlds = every_world();
+        assert_eq!(worlds.len(), REGISTRY.len());
+        for world in &worlds {
+            let (name, capabilities) = (world.name(), world.capabilities());
+            assert_eq!(world.entry().name, name);
+            assert_eq!(capabilities.tabular, world.tabular().is_some(), "{name}: tabular");
+            let known = crate::with_known_state!(world, _w => true, _other => false);
+            assert_eq!(capabilities.q_learning, known, "{name}: q_learning (an arm of with_known_state!)");
+            assert_eq!(AnyWorld::from_json(&world.to_json()).unwrap(), *world, "{name}: rebuilt from its JSON");
+        }
+        assert!(worlds.iter().any(|w| w.capabilities().tabular) && worlds.iter().any(|w| w.capabilities().q_learning));
+    }
+
+    #[test]
+    fn a_world_is_seen_as_its_own_type_only() {
+        let worlds = every_world();
+        let tracking = worlds.iter().find(|w| w.name() == TargetTracking::NAME).unwrap();
+        let pomdp = worlds.iter().find(|w| w.name() == PomdpWorld::NAME).unwrap();
+        assert_eq!(tracking.downcast_ref::<TargetTracking>().map(TargetTracking::horizon), Some(100));
+        assert!(tracking.downcast_ref::<PomdpWorld>().is_none());
+        assert!(pomdp.downcast_ref::<PomdpWorld>().is_some() && pomdp.downcast_ref::<TargetTracking>().is_none());
+        let rebuilt: AnyWorld = tracking.downcast_ref::<TargetTracking>().unwrap().clone().into();
+        assert_eq!(&rebuilt, tracking);
     }
 
     #[test]

@@ -2,12 +2,12 @@
 //! agent): the same `reset`, `observe`, `step` as an episode of the engine (model §1), with the
 //! step's reward read as the change of the episode's reward so far.
 
+use std::fmt;
+
 use crate::error::{Error, Result};
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::world::World;
-use crate::world::pomdp::PomdpWorld;
 use crate::world::registry::AnyWorld;
-use crate::world::tracking::TargetTracking;
 
 /// One world's episode in progress.
 #[derive(Clone, Debug)]
@@ -58,57 +58,89 @@ impl<W: World + Clone> Stepper<W> {
     }
 }
 
-/// An episode of any registered world, stepped from outside.
-#[derive(Clone, Debug)]
-pub enum Session {
-    /// Of the target-tracking world.
-    TargetTracking(Stepper<TargetTracking>),
-    /// Of a tabular world.
-    Pomdp(Stepper<PomdpWorld>),
+/// A [`Stepper`] of any world, its type erased: what [`Session`] holds.
+trait Episode: fmt::Debug + Send + Sync {
+    fn observation(&self) -> usize;
+    fn t(&self) -> usize;
+    fn reward(&self) -> f64;
+    fn step(&mut self, decision: usize) -> Result<(usize, f64, bool)>;
+    fn describe(&self) -> Vec<i64>;
+    fn boxed_clone(&self) -> Box<dyn Episode>;
 }
 
-macro_rules! with_stepper {
-    ($session:expr, $s:ident => $body:expr) => {
-        match $session {
-            Session::TargetTracking($s) => $body,
-            Session::Pomdp($s) => $body,
-        }
-    };
+impl<W> Episode for Stepper<W>
+where
+    W: World + Clone + fmt::Debug + Send + 'static,
+    W::State: fmt::Debug + Sync + 'static,
+{
+    fn observation(&self) -> usize {
+        self.observation
+    }
+
+    fn t(&self) -> usize {
+        self.t
+    }
+
+    fn reward(&self) -> f64 {
+        self.reward
+    }
+
+    fn step(&mut self, decision: usize) -> Result<(usize, f64, bool)> {
+        Stepper::step(self, decision)
+    }
+
+    fn describe(&self) -> Vec<i64> {
+        Stepper::describe(self)
+    }
+
+    fn boxed_clone(&self) -> Box<dyn Episode> {
+        Box::new(self.clone())
+    }
+}
+
+/// An episode of any registered world, stepped from outside.
+#[derive(Debug)]
+pub struct Session {
+    episode: Box<dyn Episode>,
+}
+
+impl Clone for Session {
+    fn clone(&self) -> Session {
+        Session { episode: self.episode.boxed_clone() }
+    }
 }
 
 impl Session {
     /// Episode `episode` of `world`, drawn from `seed` (the same pair gives the same episode for
     /// the same decisions); its first observation is ready.
     pub fn start(world: &AnyWorld, seed: u64, episode: u64) -> Session {
-        match world {
-            AnyWorld::TargetTracking(w) => Session::TargetTracking(Stepper::start(w, seed, episode)),
-            AnyWorld::Pomdp(w) => Session::Pomdp(Stepper::start(w, seed, episode)),
-        }
+        let episode = crate::with_world!(world, w => Box::new(Stepper::start(w, seed, episode)) as Box<dyn Episode>);
+        Session { episode }
     }
 
     /// The current observation `y_t`.
     pub fn observation(&self) -> usize {
-        with_stepper!(self, s => s.observation)
+        self.episode.observation()
     }
 
     /// The step `t` the next decision is for (`horizon + 1` once the episode is over).
     pub fn t(&self) -> usize {
-        with_stepper!(self, s => s.t)
+        self.episode.t()
     }
 
     /// The episode's reward so far.
     pub fn reward(&self) -> f64 {
-        with_stepper!(self, s => s.reward)
+        self.episode.reward()
     }
 
     /// Takes `decision` at step `t`: the next observation, the reward it gained, and whether the
     /// episode is over (after `horizon` steps, or where the world ended it).
     pub fn step(&mut self, decision: usize) -> Result<(usize, f64, bool)> {
-        with_stepper!(self, s => s.step(decision))
+        self.episode.step(decision)
     }
 
     /// The state as numbers (the world's `state_labels`).
     pub fn describe(&self) -> Vec<i64> {
-        with_stepper!(self, s => s.describe())
+        self.episode.describe()
     }
 }

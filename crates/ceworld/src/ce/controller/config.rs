@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::settings::{Setting, Settings};
+use crate::settings::{Given, Setting, Settings};
 
 /// Most controllers of one iteration.
 pub const MAX_SAMPLES: usize = 10_000_000;
@@ -189,6 +189,10 @@ pub struct ControllerConfig {
 
 impl Settings for ControllerConfig {
     fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        // `None` leaves a setting whose default depends on the kind of value at that default.
+        if s.value == Given::Nothing && matches!(s.name, "samples" | "rho" | "template") {
+            return Ok(());
+        }
         match s.name {
             "nodes" => self.nodes = s.count()?,
             "samples" => self.samples = s.count()?,

@@ -7,7 +7,6 @@ use crate::exact::MAX_STEPS;
 use crate::policy::controller::Controller;
 use crate::world::World;
 use crate::world::pomdp::PomdpWorld;
-use crate::world::registry::AnyWorld;
 
 use super::config::ValueKind;
 
@@ -24,18 +23,22 @@ pub enum Valued<'a> {
 }
 
 impl Valued<'_> {
-    /// How a search on `world` values its controllers: `kind`, or by default exactly on a
-    /// tabular world and from sampled episodes on any other.
-    pub fn of(world: &AnyWorld, kind: Option<ValueKind>) -> Result<Valued<'_>> {
-        match (world, kind) {
-            (AnyWorld::Pomdp(w), None | Some(ValueKind::Exact)) => Ok(Valued::Exact(w)),
-            (AnyWorld::Pomdp(w), Some(ValueKind::Sampled)) => Ok(Valued::Sampled(w)),
-            (AnyWorld::TargetTracking(w), None | Some(ValueKind::Sampled)) => Ok(Valued::Sampled(w)),
-            (other, Some(ValueKind::Exact)) => Err(Error::invalid(
+    /// How a search on `world` values its controllers: `kind`, or by default exactly where the
+    /// world is tabular (here, or sampled elsewhere) and from sampled episodes everywhere else.
+    /// The one place that decides the kind of value, and so the defaults that depend on it
+    /// ([`super::ControllerConfig::defaults_for`]).
+    pub fn of(world: &dyn Episodes, kind: Option<ValueKind>) -> Result<Valued<'_>> {
+        let elsewhere = world.remote().filter(|r| r.tabular());
+        match (world.tabular(), elsewhere, kind) {
+            (_, _, Some(ValueKind::Sampled)) | (None, None, None) => Ok(Valued::Sampled(world)),
+            (Some(tabular), _, None | Some(ValueKind::Exact)) => Ok(Valued::Exact(tabular)),
+            (None, Some(remote), None | Some(ValueKind::Exact)) => Ok(Valued::ExactElsewhere(world, remote)),
+            (None, None, Some(ValueKind::Exact)) => Err(Error::invalid(
                 "value",
                 format!(
-                    "\"exact\" for the world {} (exact values need a tabular world, a .pomdp file; use \"sampled\")",
-                    crate::with_world!(other, w => World::to_json(w))
+                    "\"exact\" for the world {} (exact values need a tabular world: a .pomdp file, a \
+                     cehmm.PomdpWorld; use \"sampled\")",
+                    world.description()
                 ),
             )),
         }

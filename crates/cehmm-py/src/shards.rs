@@ -1,0 +1,82 @@
+//! The worker's side of episodes sampled elsewhere (model §9): `controller_values` and
+//! `controller_exact_values`, a shard of a controller search's iteration as a worker runs it.
+
+use numpy::PyArray1;
+use pyo3::prelude::*;
+
+use ceworld::Error;
+use ceworld::ce::controller::ControllerValue;
+use ceworld::episodes::{Shape, Streams};
+use ceworld::policy::controller::Controller;
+use ceworld::rng::Purpose;
+
+use crate::arg::WorldArg;
+use crate::convert::{count, seed};
+use crate::errors::{OrRaise, raise};
+
+/// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), checked against
+/// `shape`.
+fn read_controllers(text: &str, shape: Shape) -> PyResult<Vec<Controller>> {
+    let controllers: Vec<Controller> = serde_json::from_str(text)
+        .map_err(|e| raise(Error::invalid("controllers", format!("{e} (expected a JSON list of controllers)"))))?;
+    controllers.iter().try_for_each(|c| c.check(shape.observations, shape.decisions)).or_raise()?;
+    Ok(controllers)
+}
+
+/// The values of episodes `0..episodes` of `(seed, purpose, iteration)` of each controller of
+/// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), controller by
+/// controller: a shard of a controller search's iteration or selection, as a worker runs it.
+#[pyfunction]
+#[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn controller_values<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
+    controllers: &str,
+    seed: &Bound<'py, PyAny>,
+    purpose: &str,
+    iteration: &Bound<'py, PyAny>,
+    episodes: &Bound<'py, PyAny>,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let streams = Streams {
+        seed: self::seed("seed", seed)?,
+        purpose: Purpose::of_episodes(purpose).or_raise()?,
+        iteration: self::seed("iteration", iteration)?,
+    };
+    let episodes = count("episodes", episodes)?;
+    ceworld::evaluate::check_episodes(episodes).or_raise()?;
+    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
+    let world = WorldArg::of(world)?;
+    let controllers = read_controllers(controllers, world.run(py, |w| Ok(w.shape()))?)?;
+    let values = world.run(py, |w| {
+        let mut values = vec![0.0; controllers.len() * episodes];
+        pool.install(|| w.run_controllers(&controllers, streams, episodes, &mut values)).map(|()| values)
+    })?;
+    Ok(PyArray1::from_vec(py, values))
+}
+
+/// The exact values of `controllers` (JSON text, as for [`controller_values`]) on a tabular
+/// world, to `tolerance` (model §8): a shard of an iteration of a search on exact values, as a
+/// worker runs it.
+#[pyfunction]
+#[pyo3(signature = (world, controllers, tolerance, threads = None))]
+pub fn controller_exact_values<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
+    controllers: &str,
+    tolerance: &Bound<'py, PyAny>,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let tolerance = crate::convert::real("tolerance", tolerance)?;
+    ceworld::ce::controller::ControllerConfig { tolerance, ..Default::default() }.validate().or_raise()?;
+    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
+    let world = WorldArg::of(world)?;
+    let tabular = world
+        .tabular()
+        .ok_or_else(|| raise(Error::invalid("world", "not tabular (exact values need a cehmm.PomdpWorld)")))?;
+    let controllers = read_controllers(controllers, ceworld::episodes::Episodes::shape(tabular))?;
+    let exact = ControllerValue::new(tabular, tolerance);
+    let values = py.detach(|| pool.install(|| exact.values(&controllers)));
+    Ok(PyArray1::from_vec(py, values))
+}

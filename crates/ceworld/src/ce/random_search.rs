@@ -1,0 +1,155 @@
+//! Random search over deterministic controllers: each iteration draws `samples` controllers of
+//! `nodes` nodes uniformly (every decision, every successor), values each on `episodes`
+//! episodes shared by all of them (common random numbers), and keeps the best so far. A
+//! baseline for the controller search of model §8, and the smallest [`Stepped`] optimiser: its
+//! config, its step and one registration in [`crate::run::OPTIMISERS`] give it everything else.
+
+use rand::RngExt;
+use serde::{Deserialize, Serialize};
+
+use crate::ce::record::IterationRecord;
+use crate::ce::stepped::{Rules, Stepped};
+use crate::episodes::{Episodes, Streams};
+use crate::error::{Error, Result};
+use crate::policy::Hhmm;
+use crate::policy::controller::Controller;
+use crate::rng::{Purpose, stream};
+use crate::settings::{Setting, Settings};
+
+/// The settings of a random search.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RandomSearchConfig {
+    /// Nodes of each controller.
+    pub nodes: usize,
+    /// Controllers drawn per iteration.
+    pub samples: usize,
+    /// Episodes each controller is valued on, per iteration.
+    pub episodes: usize,
+    /// Stop after this many iterations in a row without a better controller.
+    pub patience: usize,
+    /// Stop after this many iterations.
+    pub max_iterations: Option<usize>,
+    /// Stop after this many seconds.
+    pub time_limit: Option<f64>,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Worker threads (default: one per core).
+    pub threads: Option<usize>,
+    /// Fresh episodes the best controller is evaluated on.
+    pub eval_episodes: usize,
+}
+
+impl Default for RandomSearchConfig {
+    fn default() -> Self {
+        RandomSearchConfig {
+            nodes: 4,
+            samples: 200,
+            episodes: 100,
+            patience: 20,
+            max_iterations: None,
+            time_limit: None,
+            seed: 0,
+            threads: None,
+            eval_episodes: 10_000,
+        }
+    }
+}
+
+impl Settings for RandomSearchConfig {
+    fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "nodes" => self.nodes = s.count()?,
+            "samples" => self.samples = s.count()?,
+            "episodes" => self.episodes = s.count()?,
+            "patience" => self.patience = s.count()?,
+            "max_iterations" => self.max_iterations = s.optional_count()?,
+            "time_limit" => self.time_limit = s.optional_real()?,
+            "seed" => self.seed = s.seed()?,
+            "threads" => self.threads = s.optional_count()?,
+            "eval_episodes" => self.eval_episodes = s.count()?,
+            other => return Err(self.unknown(other)),
+        }
+        Ok(())
+    }
+}
+
+/// The state of a random search: the best controller so far and its value.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct RandomSearch {
+    /// The best controller so far, with its value (the mean of its episodes).
+    pub best: Option<(Controller, f64)>,
+}
+
+impl Stepped for RandomSearch {
+    const NAME: &'static str = "random-search";
+    const FORMAT: &'static str = "cehmm-random-search-checkpoint";
+    type Config = RandomSearchConfig;
+
+    fn rules(c: &RandomSearchConfig) -> Rules {
+        Rules {
+            patience: c.patience,
+            max_iterations: c.max_iterations,
+            time_limit: c.time_limit,
+            seed: c.seed,
+            threads: c.threads,
+            eval_episodes: c.eval_episodes,
+        }
+    }
+
+    fn validate(c: &RandomSearchConfig) -> Result<()> {
+        for (name, value) in [("nodes", c.nodes), ("samples", c.samples), ("episodes", c.episodes)] {
+            if value == 0 {
+                return Err(Error::invalid(name, "0 (expected at least 1)"));
+            }
+        }
+        if let Some(t) = c.time_limit.filter(|t| t.is_nan() || *t < 0.0) {
+            return Err(Error::invalid("time_limit", format!("{t} (expected seconds >= 0)")));
+        }
+        Ok(())
+    }
+
+    fn start(world: &dyn Episodes, c: &RandomSearchConfig) -> Result<RandomSearch> {
+        // The policy must fit before any work.
+        let shape = world.shape();
+        Controller { act: vec![0; c.nodes], next: vec![0; c.nodes * shape.observations] }
+            .to_hhmm(shape.observations, shape.decisions)?;
+        Ok(RandomSearch::default())
+    }
+
+    fn step(&mut self, world: &dyn Episodes, c: &RandomSearchConfig, iteration: usize) -> Result<IterationRecord> {
+        let shape = world.shape();
+        let mut rng = stream(c.seed, Purpose::Init, iteration as u64, 0);
+        let controllers: Vec<Controller> = (0..c.samples)
+            .map(|_| Controller {
+                act: (0..c.nodes).map(|_| rng.random_range(0..shape.decisions as u32)).collect(),
+                next: (0..c.nodes * shape.observations).map(|_| rng.random_range(0..c.nodes as u32)).collect(),
+            })
+            .collect();
+        let streams = Streams { seed: c.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
+        let mut values = vec![0.0; c.samples * c.episodes];
+        world.run_controllers(&controllers, streams, c.episodes, &mut values)?;
+        let means: Vec<f64> = values.chunks(c.episodes).map(|v| v.iter().sum::<f64>() / c.episodes as f64).collect();
+        let (k, top) =
+            means.iter().enumerate().fold((0, f64::NEG_INFINITY), |b, (k, &m)| if m > b.1 { (k, m) } else { b });
+        let successful = self.best.as_ref().is_none_or(|(_, v)| top > *v);
+        if successful {
+            self.best = Some((controllers[k].clone(), top));
+        }
+        let best = self.best.as_ref().map_or(top, |(_, v)| *v);
+        Ok(IterationRecord {
+            iteration,
+            mean: means.iter().sum::<f64>() / means.len() as f64,
+            best,
+            elite_threshold: top,
+            elite_mean: top,
+            seconds: 0.0,
+            successful,
+        })
+    }
+
+    fn policy(&self, world: &dyn Episodes) -> Result<Hhmm> {
+        let shape = world.shape();
+        let (best, _) = self.best.as_ref().ok_or_else(|| Error::invalid("random-search", "no iteration has run"))?;
+        best.to_hhmm(shape.observations, shape.decisions)
+    }
+}

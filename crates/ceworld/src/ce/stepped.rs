@@ -1,0 +1,205 @@
+//! An optimiser given by its iteration step alone ([`Stepped`]): the loop around it, its stop
+//! rules, its history, its checkpoints (resumed bit for bit), its thread pool and the
+//! evaluation of its result are this module's, the same for every such optimiser. What it
+//! samples, it samples through [`Episodes`], so that it runs on any world, here or on a backend
+//! elsewhere.
+
+use std::marker::PhantomData;
+
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+
+use crate::ce::record::IterationRecord;
+use crate::ce::resume::{Checkpointing, Resumable, Saver};
+use crate::ce::stopping::StopReason;
+use crate::control::{Flow, thread_pool};
+use crate::episodes::Episodes;
+use crate::error::{Error, Result};
+use crate::evaluate::{Evaluation, evaluate};
+use crate::policy::Hhmm;
+use crate::policy::file::PolicyFile;
+use crate::settings::Settings;
+
+/// The stop rules and the run settings every stepped optimiser has, read from its config.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rules {
+    /// Stop after this many iterations in a row without success.
+    pub patience: usize,
+    /// Stop after this many iterations.
+    pub max_iterations: Option<usize>,
+    /// Stop after this many seconds (every session together), checked between iterations.
+    pub time_limit: Option<f64>,
+    /// Seed of every random stream (the evaluation's too).
+    pub seed: u64,
+    /// Worker threads (default: one per core).
+    pub threads: Option<usize>,
+    /// Fresh episodes the result is evaluated on.
+    pub eval_episodes: usize,
+}
+
+/// An optimiser as its state between two iterations and its iteration step. Registering it in
+/// [`crate::run::OPTIMISERS`] gives it the command line (`ceworld run NAME`), Python
+/// (`cehmm.run(NAME, ...)`), the progress line, checkpoints, the history and the backends.
+pub trait Stepped: Clone + Serialize + DeserializeOwned + Send + Sync {
+    /// Its name (in the registry, on the command line, in Python, in policy files).
+    const NAME: &'static str;
+    /// The `"format"` of its checkpoint files.
+    const FORMAT: &'static str;
+    /// Its settings.
+    type Config: Settings + Default + Clone + Serialize + DeserializeOwned + Send + Sync;
+
+    /// The stop rules and run settings of `config`.
+    fn rules(config: &Self::Config) -> Rules;
+    /// Refuses settings out of their domain, naming them.
+    fn validate(config: &Self::Config) -> Result<()>;
+    /// The state before the first iteration.
+    fn start(world: &dyn Episodes, config: &Self::Config) -> Result<Self>;
+    /// Iteration `iteration` (from 0), its record's `seconds` left to the spine; an iteration is
+    /// successful when it finds a better result.
+    fn step(&mut self, world: &dyn Episodes, config: &Self::Config, iteration: usize) -> Result<IterationRecord>;
+    /// The best policy so far.
+    fn policy(&self, world: &dyn Episodes) -> Result<Hhmm>;
+}
+
+/// A stepped run between two iterations, as checkpoints keep it.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct SteppedRun<O: Stepped> {
+    /// The optimiser's state.
+    pub state: O,
+    /// One record per iteration so far.
+    pub history: Vec<IterationRecord>,
+    /// Iterations since the last successful one.
+    pub since: usize,
+}
+
+/// The checkpoints of the stepped optimiser `O`.
+pub struct SteppedKind<O>(PhantomData<O>);
+
+impl<O: Stepped> Resumable for SteppedKind<O> {
+    const FORMAT: &'static str = O::FORMAT;
+    const VERSION: u64 = 1;
+    const OLDEST: u64 = 1;
+    type Config = O::Config;
+    type Run = SteppedRun<O>;
+    type Finished = SteppedRun<O>;
+
+    fn restarts(_: &O::Config) -> usize {
+        1
+    }
+
+    fn check_run(_: &O::Config, run: &SteppedRun<O>) -> Option<String> {
+        let numbered = run.history.iter().enumerate().all(|(k, r)| r.iteration == k);
+        let since = run.history.iter().rev().take_while(|r| !r.successful).count();
+        (!numbered || since != run.since).then(|| "its history does not match its counters".into())
+    }
+
+    fn check_finished(config: &O::Config, finished: &SteppedRun<O>) -> Option<String> {
+        Self::check_run(config, finished)
+    }
+
+    fn non_finite(run: Option<&SteppedRun<O>>, finished: &[SteppedRun<O>]) -> Option<String> {
+        run.into_iter().chain(finished).flat_map(|r| &r.history).find_map(IterationRecord::non_finite)
+    }
+}
+
+/// What a stepped run gives.
+#[derive(Clone, Debug)]
+pub struct SteppedOutcome {
+    /// The best policy found.
+    pub policy: Hhmm,
+    /// One record per iteration.
+    pub history: Vec<IterationRecord>,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// The best policy on fresh episodes.
+    pub evaluation: Evaluation,
+    /// Wall seconds, every session together, the evaluation included.
+    pub seconds: f64,
+    /// Why the last checkpoint could not be written, if it could not.
+    pub checkpoint_error: Option<String>,
+}
+
+impl SteppedOutcome {
+    /// The result as a policy file (model §6): the policy, the world, and the provenance (the
+    /// settings of `config`, the method `name`, how the run went).
+    pub fn to_file<C: Settings>(&self, world: &dyn Episodes, name: &str, config: &C) -> PolicyFile {
+        let mut map = config.provenance();
+        for (key, value) in [
+            ("method", json!(name)),
+            ("iterations", json!(self.history.len())),
+            ("stop", json!(self.stop.as_str())),
+            ("interrupted", json!(self.stop == StopReason::Interrupted)),
+            ("evaluation_mean", json!(self.evaluation.mean)),
+            ("evaluation_std_error", json!(self.evaluation.std_error)),
+            ("evaluation_episodes", json!(self.evaluation.episodes)),
+            ("version", json!(crate::VERSION)),
+        ] {
+            map.insert(key.into(), value);
+        }
+        PolicyFile { policy: self.policy.clone(), world: world.description(), provenance: map.into() }
+    }
+}
+
+/// Runs the stepped optimiser `O` on `world` with `config` until a stop rule or `observe` stops
+/// it, checkpointed as `checkpointing` asks (a resumed run continues bit for bit).
+pub fn run_stepped<O: Stepped>(
+    world: &dyn Episodes,
+    config: &O::Config,
+    checkpointing: Option<&Checkpointing>,
+    mut observe: impl FnMut(&IterationRecord) -> Flow,
+) -> Result<SteppedOutcome> {
+    O::validate(config)?;
+    let rules = O::rules(config);
+    crate::evaluate::check_episodes(rules.eval_episodes)?;
+    let pool = thread_pool(rules.threads)?;
+    let mut saver = Saver::<SteppedKind<O>>::new(world, config, checkpointing, None)?;
+    let mut run = match saver.state.run.take() {
+        Some(run) => run,
+        None => SteppedRun { state: pool.install(|| O::start(world, config))?, history: Vec::new(), since: 0 },
+    };
+    let stop = loop {
+        let iteration = run.history.len();
+        let rule = if run.since >= rules.patience && iteration > 0 {
+            Some(StopReason::Patience)
+        } else if rules.max_iterations.is_some_and(|m| iteration >= m) {
+            Some(StopReason::MaxIterations)
+        } else {
+            rules.time_limit.filter(|&limit| saver.seconds() >= limit).map(|_| StopReason::TimeLimit)
+        };
+        // The stop rules are read afresh on resume (they may differ between sessions).
+        if let Some(stop) = rule {
+            break stop;
+        }
+        let mut next = run.state.clone();
+        let mut record = match pool.install(|| next.step(world, config, iteration)) {
+            Ok(record) => record,
+            // An iteration a stop cut is dropped: the state is the one before it.
+            Err(Error::Interrupted) if world.interrupt().is_some_and(crate::control::Interrupt::stopping) => {
+                break StopReason::Interrupted;
+            }
+            Err(e) => return Err(e),
+        };
+        record.iteration = iteration;
+        record.seconds = saver.seconds();
+        run.state = next;
+        run.since = if record.successful { 0 } else { run.since + 1 };
+        run.history.push(record.clone());
+        saver.save_run(false, || run.clone());
+        if observe(&record) == Flow::Stop {
+            break StopReason::Interrupted;
+        }
+    };
+    saver.save_run(true, || run.clone());
+    let policy = run.state.policy(world)?;
+    let evaluation = pool.install(|| evaluate(world, &policy, rules.eval_episodes, rules.seed))?;
+    Ok(SteppedOutcome {
+        policy,
+        history: run.history,
+        stop,
+        evaluation,
+        seconds: saver.seconds(),
+        checkpoint_error: saver.failed.take(),
+    })
+}

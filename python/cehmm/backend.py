@@ -1,0 +1,72 @@
+"""What a backend is: where an optimisation's episodes are sampled when not here (model §9).
+
+The optimisers run on the driver; each iteration a :class:`~cehmm._core.RemoteWorld` asks its
+:class:`Sampler` for the rewards of a range of episodes, the counts of the elite, or the values
+of a batch of controllers, each answered at once by a :class:`Pending` that the engine waits
+for in short slices (so that Ctrl-C cancels what is still running). A :class:`Backend` (such as
+:class:`cehmm.RayBackend`) binds a world to its sampler; ``backend=`` of every optimiser takes
+one. The engine names the same methods (``_core.BACKEND_METHODS``, ``_core.PENDING_METHODS``):
+tests/test_backend.py holds the two to each other.
+
+Policies and controllers travel as JSON text; episode ``k`` of ``(seed, purpose, iteration)``
+must be sampled from its own random stream (the engine's ``_core.controller_values`` and the
+worker functions of :mod:`cehmm.ray_backend` do), so that a backend gives the local result, bit
+for bit.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+
+@runtime_checkable
+class Pending(Protocol):
+    """An answer on its way."""
+
+    def wait(self, timeout: float) -> bool:
+        """Whether the answer is ready, after at most ``timeout`` seconds."""
+        ...
+
+    def result(self) -> npt.NDArray[Any]:
+        """The answer: a 1-d numpy array (float64 values, uint32 counts); a failure raised."""
+        ...
+
+    def cancel(self) -> None:
+        """Stops whatever is still running for this answer."""
+        ...
+
+
+@runtime_checkable
+class Sampler(Protocol):
+    """The episodes of one world, sampled elsewhere."""
+
+    def rewards(self, policy: str, seed: int, purpose: str, iteration: int, first: int, n: int) -> Pending:
+        """Rewards of episodes ``first..first + n`` of ``(seed, purpose, iteration)`` under
+        ``policy`` (a policy document)."""
+        ...
+
+    def counts(self, policy: str, seed: int, iteration: int, episodes: npt.NDArray[np.uint64]) -> Pending:
+        """The summed counts (the policy's table layout) of ``episodes`` of iteration
+        ``iteration``."""
+        ...
+
+    def controller_values(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Pending:
+        """The mean reward of episodes ``0..episodes`` of each controller, in order."""
+        ...
+
+    def exact_values(self, controllers: str, tolerance: float) -> Pending:
+        """The exact value of each controller (a tabular world), to ``tolerance``."""
+        ...
+
+
+@runtime_checkable
+class Backend(Protocol):
+    """Binds a world to the :class:`Sampler` of its episodes."""
+
+    def bind(self, world: Any, options: dict[str, Any]) -> Sampler:
+        """The sampler of ``world`` (an engine world or a world written in Python; ``options``
+        those of ``core_world``)."""
+        ...

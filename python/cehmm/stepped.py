@@ -1,0 +1,90 @@
+"""Any optimiser given by its iteration step (``ceworld::run::OPTIMISERS``), by name:
+:func:`run` and its :class:`RunResult`. Such an optimiser gets every run option of the others
+(progress, checkpoints, Ctrl-C, the Ray backend) from the engine's run spine."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import _core
+from .backend import Backend
+from .optimizer import CE_DEFAULTS, _sigterm_interrupts
+from .outside import Score
+from .policy import Policy
+from .ray_backend import sampled_world
+from .world import core_world
+
+#: Every optimiser given by its step: name -> its settings with their defaults.
+OPTIMISERS: dict[str, dict[str, Any]] = dict(_core.OPTIMISERS)
+
+
+@dataclass(frozen=True, eq=False)
+class RunResult:
+    """The outcome of :func:`run`.
+
+    Attributes:
+        policy: the best policy found, with its provenance (the settings, the method).
+        history: one numpy array per statistic, one entry per iteration (``iteration``,
+            ``mean``, ``best``, ``elite_threshold``, ``elite_mean``, ``seconds``,
+            ``successful``).
+        evaluation: :attr:`policy` on fresh episodes.
+        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"`` or
+            ``"interrupted"``.
+        seconds: wall time, every session together.
+    """
+
+    policy: Policy
+    history: dict[str, np.ndarray]
+    evaluation: _core.Evaluation
+    stop_reason: str
+    seconds: float
+
+    @property
+    def interrupted(self) -> bool:
+        """Whether Ctrl-C stopped it."""
+        return self.stop_reason == "interrupted"
+
+
+def run(
+    name: str,
+    world: Any,
+    *,
+    progress: bool = True,
+    checkpoint: str | os.PathLike[str] | None = None,
+    checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
+    resume: bool = False,
+    score: Score | None = None,
+    discount: float | None = None,
+    horizon: int | None = None,
+    backend: str | Backend = "local",
+    workers: int | None = None,
+    address: str | None = None,
+    **settings: Any,
+) -> RunResult:
+    """Runs the optimiser ``name`` (a key of :data:`OPTIMISERS`, e.g. ``"random-search"``) on
+    ``world`` with ``settings`` (by name; see ``OPTIMISERS[name]`` for them and their defaults).
+
+    The run options mean what they mean for :func:`optimize`: ``progress``, ``checkpoint``,
+    ``checkpoint_every``, ``resume`` (bit for bit), ``score``, ``discount`` and ``horizon`` for
+    a world written in Python, ``backend``, ``workers`` and ``address`` for Ray.
+
+    Raises:
+        InvalidArgumentError: an unknown optimiser or setting, or a setting out of its domain.
+    """
+    options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
+    sampled = sampled_world(core_world(world, **options), world, options, backend, workers, address)
+    with _sigterm_interrupts(checkpoint is not None):
+        raw = _core.run(
+            name,
+            sampled,
+            settings,
+            progress=progress,
+            checkpoint=checkpoint,
+            checkpoint_every=checkpoint_every,
+            resume=resume,
+        )
+    return RunResult(**{**raw, "policy": Policy(raw["policy"])})

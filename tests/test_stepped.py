@@ -1,0 +1,76 @@
+"""An optimiser given by its iteration step (``ceworld::run::OPTIMISERS``; issue 30): the random
+search over controllers reaches Python (``cehmm.run``) and the command line (``cehmm run``) by
+its registration alone, with settings by name, the progress line, the history, checkpoints
+resumed bit for bit, and worlds written in Python (the Ray backend: tests/test_ray.py)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from worlds import Corridor
+
+import cehmm
+
+TIGER = Path(__file__).parents[1] / "data" / "pomdp" / "tiger.95.POMDP"
+SETTINGS = dict(nodes=3, samples=40, episodes=20, eval_episodes=500, progress=False)
+
+
+def test_its_settings_and_defaults_come_from_the_registry() -> None:
+    defaults = cehmm.stepped.OPTIMISERS["random-search"]
+    assert defaults["nodes"] == 4 and defaults["max_iterations"] is None
+    with pytest.raises(cehmm.InvalidArgumentError, match='"anneal"'):
+        cehmm.run("anneal", Corridor(), progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match='setting: "speed"'):
+        cehmm.run("random-search", Corridor(), speed=1, progress=False)
+    with pytest.raises(TypeError, match="nodes"):
+        cehmm.run("random-search", Corridor(), nodes="3", progress=False)
+
+
+def test_it_runs_on_engine_worlds_and_worlds_written_in_python() -> None:
+    tiger = cehmm.PomdpWorld(TIGER, horizon=20)
+    result = cehmm.run("random-search", tiger, max_iterations=5, **SETTINGS)
+    assert result.stop_reason == "max_iterations" and len(result.history["mean"]) == 5
+    assert result.policy.levels == [3, 3]
+    assert result.policy.provenance["method"] == "random-search"
+    assert np.all(np.diff(result.history["best"]) >= 0)
+    corridor = cehmm.run("random-search", Corridor(), max_iterations=3, **SETTINGS)
+    assert corridor.evaluation.episodes == 500
+    # The same seed, the same search, whatever the threads.
+    again = cehmm.run("random-search", tiger, max_iterations=5, threads=1, **SETTINGS)
+    assert again.policy.to_json() == result.policy.to_json()
+
+
+def test_a_run_resumes_from_its_checkpoint(tmp_path: Path) -> None:
+    tiger = cehmm.PomdpWorld(TIGER, horizon=20)
+    whole = cehmm.run("random-search", tiger, max_iterations=8, **SETTINGS)
+    path = tmp_path / "search.ckpt"
+    cehmm.run("random-search", tiger, max_iterations=3, checkpoint=path, resume=True, **SETTINGS)
+    rest = cehmm.run("random-search", tiger, max_iterations=8, checkpoint=path, resume=True, **SETTINGS)
+    assert list(rest.history["best"]) == list(whole.history["best"])
+    assert rest.evaluation == whole.evaluation
+    with pytest.raises(cehmm.PolicyMismatchError, match="nodes 3, not 4"):
+        cehmm.run("random-search", tiger, checkpoint=path, resume=True, **{**SETTINGS, "nodes": 4})
+
+
+def test_the_command_line_runs_it_by_name(tmp_path: Path) -> None:
+    def cli(*args: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "cehmm.cli", "run", "random-search", *args]
+        return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+
+    listed = cli("--list")
+    assert listed.returncode == 0 and "nodes = 4" in listed.stdout, listed.stderr
+    sets = ["--set", "nodes=3", "--set", "samples=40", "--set", "episodes=20", "--set", "eval_episodes=500"]
+    done = cli("--pomdp", str(TIGER), "--horizon", "20", *sets, "--set", "max_iterations=4", "--history", "h.jsonl")
+    assert done.returncode == 0, done.stderr
+    assert "max_iterations: 4 iterations" in done.stdout
+    assert "iter " in done.stderr  # the progress line
+    policy = json.loads((tmp_path / "policy.json").read_text())
+    assert policy["provenance"]["method"] == "random-search" and policy["provenance"]["nodes"] == 3
+    assert len((tmp_path / "h.jsonl").read_text().splitlines()) == 4
+    bad = cli("--pomdp", str(TIGER), "--set", "nodes=0", "--out", "other.json")
+    assert bad.returncode == 2 and "invalid nodes: 0" in bad.stderr
