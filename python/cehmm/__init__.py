@@ -40,14 +40,11 @@ except ImportError as e:
 from ._core import (
     ENGINE_VERSION,
     CehmmError,
-    Evaluation,
-    ExactValue,
     InternalError,
     InvalidArgumentError,
     ModelFormatError,
     PolicyFormatError,
     PolicyMismatchError,
-    Rollout,
     WorldError,
 )
 from .controller import ControllerResult, optimize_controller
@@ -57,6 +54,7 @@ from .policy import Policy
 from .pomdp import PomdpWorld
 from .qlearning import QLearner, WindowEvaluation, evaluate_windows, qlearning
 from .ray_backend import RayBackend
+from .results import Evaluation, ExactValue, Rollout
 from .stepped import RunResult, run
 from .tracking import TargetTracking
 from .world import World

@@ -27,11 +27,7 @@ __all__ = [
     "RemoteWorld",
     "controller_exact_values",
     "controller_values",
-    "ExactValue",
     "Policy",
-    "Evaluation",
-    "Rollout",
-    "WindowEvaluation",
     "cli",
     "read_file",
     "check_distinct",
@@ -191,73 +187,36 @@ class OutsideWorld:
     @property
     def batch(self) -> int: ...
 
-@final
-class ExactValue:
-    """``ceworld::exact::ExactValue``: an exact value on a tabular world."""
+class _EvaluationDict(TypedDict):
+    """``cehmm.results.Evaluation``'s fields."""
 
-    def __eq__(self, value: object, /) -> bool: ...
-    @property
-    def value(self) -> float: ...
-    @property
-    def steps(self) -> int: ...
-    @property
-    def tail_bound(self) -> float: ...
-    def __float__(self) -> float: ...
+    episodes: int
+    mean: float
+    std_error: float
+    std: float
+    min: float
+    max: float
+    quantiles: dict[float, float]
+    shown: str
 
-@final
-class Evaluation:
-    """``ceworld::Evaluation``: the reward of a policy over fresh episodes."""
+class _ExactValueDict(TypedDict):
+    value: float
+    steps: int
+    tail_bound: float
 
-    def __eq__(self, value: object, /) -> bool: ...
-    @property
-    def episodes(self) -> int: ...
-    @property
-    def mean(self) -> float: ...
-    @property
-    def std_error(self) -> float: ...
-    @property
-    def std(self) -> float: ...
-    @property
-    def min(self) -> float: ...
-    @property
-    def max(self) -> float: ...
-    @property
-    def quantiles(self) -> dict[float, float]: ...
+class _RolloutDict(TypedDict):
+    x: npt.NDArray[np.int64]  # (T, k), k = len(x_labels)
+    x_labels: list[str]
+    y: npt.NDArray[np.int64]  # (T,)
+    d: npt.NDArray[np.int64]  # (T,)
+    memory: npt.NDArray[np.int64]  # (T, Λ)
+    reward: float
 
-@final
-class Rollout:
-    """``ceworld::evaluate::Rollout``: one recorded episode; step ``t`` is row ``t``."""
-
-    @property
-    def x(self) -> npt.NDArray[np.int64]: ...  # (T, k), k = len(x_labels)
-    @property
-    def x_labels(self) -> list[str]: ...
-    @property
-    def y(self) -> npt.NDArray[np.int64]: ...  # (T,)
-    @property
-    def d(self) -> npt.NDArray[np.int64]: ...  # (T,)
-    @property
-    def memory(self) -> npt.NDArray[np.int64]: ...  # (T, Λ)
-    @property
-    def reward(self) -> float: ...
-    def __len__(self) -> int: ...
-    def column(self, label: str) -> npt.NDArray[np.int64]: ...
-    # Attached by cehmm.policy (the compiled module does not call into cehmm.plots).
-    def plot(self, **kwargs: Any) -> Any: ...
-    def animate(self, path: str | os.PathLike[str], **kwargs: Any) -> Any: ...
-
-@final
-class WindowEvaluation:
-    """``ceworld::qlearn::WindowReport`` with the reward counted as 100 %."""
-
-    def __eq__(self, value: object, /) -> bool: ...
-    @property
-    def from_start(self) -> Evaluation: ...
-    @property
-    def continuing(self) -> Evaluation: ...
-    @property
-    def reference(self) -> float: ...
-    def percent(self) -> dict[str, tuple[float, float, float]]: ...
+class _WindowsDict(TypedDict):
+    from_start: _EvaluationDict
+    continuing: _EvaluationDict
+    reference: float
+    shown: str
 
 @final
 class Policy:
@@ -294,8 +253,8 @@ class Policy:
     def tables(self) -> TablesDict: ...
     def evaluate(
         self, world: World | OutsideWorld, episodes: int, seed: int, threads: int | None = None
-    ) -> Evaluation: ...
-    def rollout(self, world: World | OutsideWorld, seed: int, episode: int) -> Rollout: ...
+    ) -> _EvaluationDict: ...
+    def rollout(self, world: World | OutsideWorld, seed: int, episode: int) -> _RolloutDict: ...
     def shard_rewards(
         self,
         world: World | OutsideWorld,
@@ -316,7 +275,7 @@ class Policy:
     ) -> npt.NDArray[np.uint32]: ...
     def evaluate_exact(
         self, world: World | OutsideWorld, horizon: int | None, infinite: bool, tolerance: float
-    ) -> ExactValue: ...
+    ) -> _ExactValueDict: ...
     def graph(self, world: World | OutsideWorld, form: str, prune: float) -> Any: ...
     def most_likely(self) -> Policy: ...
 
@@ -326,7 +285,7 @@ class _OptimizeOutcome(TypedDict):
     policy: Policy
     last_policy: Policy
     history: HistoryDict
-    evaluation: Evaluation
+    evaluation: _EvaluationDict
     stop_reason: str
     interrupted: bool
     best_iteration: int
@@ -370,7 +329,7 @@ class _ControllerOutcome(TypedDict):
     policy: Policy
     value: float
     kind: str
-    evaluation: Evaluation | None
+    evaluation: _EvaluationDict | None
     history: ControllerHistoryDict
     stop_reason: str
     interrupted: bool
@@ -395,7 +354,7 @@ class _RunOutcome(TypedDict):
 
     policy: Policy
     history: HistoryDict
-    evaluation: Evaluation
+    evaluation: _EvaluationDict
     stop_reason: str
     seconds: float
 
@@ -443,7 +402,7 @@ def evaluate_policy_windows(
     seed: int,
     threads: int | None,
     reference: float,
-) -> WindowEvaluation: ...
+) -> _WindowsDict: ...
 
 @final
 class QLearner:
@@ -475,27 +434,9 @@ class QLearner:
         threads: int | None,
         reference: float,
         ties: str | None,
-    ) -> WindowEvaluation: ...
-    @property
-    def updates(self) -> int: ...
-    @property
-    def n_states(self) -> int: ...
-    @property
-    def n_actions(self) -> int: ...
+    ) -> _WindowsDict: ...
     @property
     def table_bytes(self) -> int: ...
-    @property
-    def gamma(self) -> float: ...
-    @property
-    def alpha(self) -> float: ...
-    @property
-    def seed(self) -> int: ...
-    @property
-    def ties(self) -> str: ...  # "random" or "lowest"
-    @property
-    def reward_total(self) -> float: ...
-    @property
-    def seconds(self) -> float: ...
     def header(self) -> dict[str, Any]: ...
     def world(self) -> World: ...
     def table(self) -> npt.NDArray[np.float32]: ...  # (n_states, n_actions)

@@ -16,6 +16,7 @@ from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
+from .results import Evaluation, evaluation
 from .world import core_world
 
 #: The engine's defaults (one home: ``ceworld::ControllerConfig::default()``).
@@ -60,7 +61,7 @@ class ControllerResult:
     policy: Policy
     value: float
     kind: str
-    evaluation: _core.Evaluation | None
+    evaluation: Evaluation | None
     history: dict[str, np.ndarray]
     stop_reason: str
     interrupted: bool
@@ -251,4 +252,12 @@ def optimize_controller(
             checkpoint_every=checkpoint_every,
             resume=resume,
         )
-    return ControllerResult(**{**raw, "policy": Policy(raw["policy"]), "run_values": list(raw["run_values"])})
+    found = raw["evaluation"]
+    return ControllerResult(
+        **{
+            **raw,
+            "policy": Policy(raw["policy"]),
+            "run_values": list(raw["run_values"]),
+            "evaluation": None if found is None else evaluation(found),
+        }
+    )

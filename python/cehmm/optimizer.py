@@ -13,11 +13,11 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from ._core import Evaluation
 from .backend import Backend
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
+from .results import Evaluation, evaluation
 from .world import core_world
 
 #: What :func:`optimize` starts from.
@@ -64,7 +64,14 @@ class OptimizeResult:
 
     @classmethod
     def _from_core(cls, core: _core._OptimizeOutcome) -> OptimizeResult:
-        return cls(**{**core, "policy": Policy(core["policy"]), "last_policy": Policy(core["last_policy"])})
+        return cls(
+            **{
+                **core,
+                "policy": Policy(core["policy"]),
+                "last_policy": Policy(core["last_policy"]),
+                "evaluation": evaluation(core["evaluation"]),
+            }
+        )
 
     def plot(self, x: str = "iteration") -> Any:
         """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""

@@ -9,9 +9,10 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from ._core import Agent, Evaluation, ExactValue, InvalidArgumentError, PolicyFormatError, Rollout
+from ._core import Agent, InvalidArgumentError, PolicyFormatError
 from .backend import Backend
 from .ray_backend import sampled_world
+from .results import Evaluation, ExactValue, Rollout, evaluation
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -208,7 +209,7 @@ class Policy:
         """
         world = self._world(world)
         sampled = sampled_world(core_world(world), world, {}, backend, workers, address)
-        return self._core.evaluate(sampled, episodes, seed, threads)
+        return evaluation(self._core.evaluate(sampled, episodes, seed, threads))
 
     def evaluate_exact(
         self,
@@ -230,7 +231,7 @@ class Policy:
             InvalidArgumentError: the world is not tabular, or ``infinite`` with a discount of 1.
             PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
         """
-        return self._core.evaluate_exact(core_world(self._world(world)), horizon, infinite, tolerance)
+        return ExactValue(**self._core.evaluate_exact(core_world(self._world(world)), horizon, infinite, tolerance))
 
     def graph(self, world: World | None = None, form: str = "text", prune: float = _core.GRAPH_PRUNE) -> Any:
         """The policy as a finite-state controller (a policy graph) on a tabular world.
@@ -287,7 +288,7 @@ class Policy:
         Raises:
             PolicyMismatchError: the policy's ``Y`` or ``D`` differ from the world's.
         """
-        return self._core.rollout(core_world(self._world(world)), seed, episode)
+        return Rollout(**self._core.rollout(core_world(self._world(world)), seed, episode))
 
     def _world(self, world: Any) -> Any:
         if world is not None:
@@ -319,24 +320,3 @@ def _array(tables: Mapping[str, Any], key: str, prefix: str = "") -> np.ndarray:
         return np.ascontiguousarray(tables[key], dtype=np.float64)
     except (TypeError, ValueError) as e:
         raise PolicyFormatError(f"{prefix}{key} is not an array of numbers ({e})") from None
-
-
-# A recorded episode's drawing methods belong to the Python layer: the compiled module never
-# calls up into `cehmm.plots` (docs/architecture.md), so they are attached to its class here.
-def _plot_rollout(self: Rollout, **kwargs: Any) -> Any:
-    """The episode drawn (:func:`cehmm.plots.rollout`, keywords passed on): a matplotlib figure."""
-    from .plots import rollout
-
-    return rollout(self, **kwargs)
-
-
-def _animate_rollout(self: Rollout, path: str | os.PathLike[str], **kwargs: Any) -> Any:
-    """The episode as an animation saved to ``path`` (:func:`cehmm.plots.animation`, keywords
-    passed on)."""
-    from .plots import animation
-
-    return animation(self, path, **kwargs)
-
-
-Rollout.plot = _plot_rollout  # type: ignore[method-assign]
-Rollout.animate = _animate_rollout  # type: ignore[method-assign]

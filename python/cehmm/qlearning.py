@@ -18,8 +18,8 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from ._core import WindowEvaluation
 from .policy import Policy
+from .results import WindowEvaluation, windows
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -159,19 +159,21 @@ class QLearner:
         settings = dict(
             window=window, episodes=episodes, chains=chains, burn_in=burn_in, windows_per_chain=windows_per_chain
         )
-        return self._core.evaluate_windows(
-            core_world(self.world if world is None else world),
-            settings,
-            seed=seed,
-            threads=threads,
-            reference=reference,
-            ties=ties,
+        return windows(
+            self._core.evaluate_windows(
+                core_world(self.world if world is None else world),
+                settings,
+                seed=seed,
+                threads=threads,
+                reference=reference,
+                ties=ties,
+            )
         )
 
     @property
     def updates(self) -> int:
         """Updates run so far (``t`` of the last one)."""
-        return self._core.updates
+        return self._core.header()["updates"]  # type: ignore[no-any-return]
 
     @property
     def epsilon(self) -> float:
@@ -181,12 +183,12 @@ class QLearner:
     @property
     def n_states(self) -> int:
         """Number of known states (rows of the table)."""
-        return self._core.n_states
+        return self._core.header()["n_states"]  # type: ignore[no-any-return]
 
     @property
     def n_actions(self) -> int:
         """Number of actions (columns of the table)."""
-        return self._core.n_actions
+        return self._core.header()["n_actions"]  # type: ignore[no-any-return]
 
     @property
     def table_bytes(self) -> int:
@@ -196,32 +198,32 @@ class QLearner:
     @property
     def gamma(self) -> float:
         """Discount ``γ``."""
-        return self._core.gamma
+        return self._core.header()["gamma"]  # type: ignore[no-any-return]
 
     @property
     def alpha(self) -> float:
         """Learning rate ``α``."""
-        return self._core.alpha
+        return self._core.header()["alpha"]  # type: ignore[no-any-return]
 
     @property
     def seed(self) -> int:
         """Seed of the run's random stream."""
-        return self._core.seed
+        return self._core.header()["seed"]  # type: ignore[no-any-return]
 
     @property
     def ties(self) -> str:
         """How greedy ties are broken, in learning and in the greedy policy: ``"random"`` or ``"lowest"``."""
-        return self._core.ties
+        return self._core.header()["ties"]  # type: ignore[no-any-return]
 
     @property
     def reward_total(self) -> float:
         """Sum of the rewards of every update (the ε-greedy learning run's own reward)."""
-        return self._core.reward_total
+        return self._core.header()["reward_total"]  # type: ignore[no-any-return]
 
     @property
     def seconds(self) -> float:
         """Seconds spent learning, over every session."""
-        return self._core.seconds
+        return self._core.header()["seconds"]  # type: ignore[no-any-return]
 
     @property
     def header(self) -> dict[str, Any]:
@@ -334,18 +336,22 @@ def evaluate_windows(
         window=window, episodes=episodes, chains=chains, burn_in=burn_in, windows_per_chain=windows_per_chain
     )
     if isinstance(policy, QLearner):
-        return policy._core.evaluate_windows(
-            core_world(policy.world if world is None else world),
-            settings,
-            seed=seed,
-            threads=threads,
-            reference=reference,
-            ties=None,
+        return windows(
+            policy._core.evaluate_windows(
+                core_world(policy.world if world is None else world),
+                settings,
+                seed=seed,
+                threads=threads,
+                reference=reference,
+                ties=None,
+            )
         )
     if not isinstance(policy, Policy):
         raise TypeError(f"invalid policy: {policy!r} (expected a cehmm.Policy or a cehmm.QLearner)")
     if world is None:
         world = World.from_dict(policy.world)
-    return _core.evaluate_policy_windows(
-        policy._core, core_world(world), settings, seed=seed, threads=threads, reference=reference
+    return windows(
+        _core.evaluate_policy_windows(
+            policy._core, core_world(world), settings, seed=seed, threads=threads, reference=reference
+        )
     )

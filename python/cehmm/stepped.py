@@ -16,6 +16,7 @@ from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
+from .results import Evaluation, evaluation
 from .world import core_world
 
 #: Every optimiser given by its step: name -> its settings with their defaults.
@@ -39,7 +40,7 @@ class RunResult:
 
     policy: Policy
     history: dict[str, np.ndarray]
-    evaluation: _core.Evaluation
+    evaluation: Evaluation
     stop_reason: str
     seconds: float
 
@@ -87,4 +88,4 @@ def run(
             checkpoint_every=checkpoint_every,
             resume=resume,
         )
-    return RunResult(**{**raw, "policy": Policy(raw["policy"])})
+    return RunResult(**{**raw, "policy": Policy(raw["policy"]), "evaluation": evaluation(raw["evaluation"])})

@@ -16,7 +16,6 @@ use crate::arg::WorldArg;
 use crate::convert::{columns, flag, named, text};
 use crate::errors::OrRaise;
 use crate::policy::PyPolicy;
-use crate::results::PyEvaluation;
 use crate::run::{checkpointing, watched};
 
 /// Searches a deterministic controller of any world (model §8) with `settings` (keyword
@@ -54,7 +53,7 @@ pub fn optimize_controller<'py>(
     result.set_item("policy", PyPolicy { file })?;
     result.set_item("value", o.value)?;
     result.set_item("kind", o.kind.as_str())?;
-    result.set_item("evaluation", o.evaluation.map(PyEvaluation))?;
+    result.set_item("evaluation", o.evaluation.as_ref().map(|e| crate::results::evaluation(py, e)).transpose()?)?;
     result.set_item("stop_reason", o.stop.as_str())?;
     result.set_item("interrupted", o.stop == StopReason::Interrupted)?;
     result.set_item("best_iteration", o.best_iteration)?;

@@ -13,7 +13,7 @@ use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyT
 use serde_json::{Map, Number, Value};
 
 use ceworld::Error;
-use ceworld::settings::{Given, Settings};
+use ceworld::settings::{Given, Setting, Settings};
 
 use crate::errors::raise;
 
@@ -26,70 +26,44 @@ fn wrong_type(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyErr {
     raise(Error::wrong_type(name, format!("{} (expected {expected})", shown(value))))
 }
 
-/// An integer that fits in 64 bits, signed or not.
-enum Int {
-    Signed(i64),
-    Unsigned(u64),
-}
-
-/// An int (or numpy integer): `None` when it does not fit in 64 bits.
-fn int(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyResult<Option<Int>> {
-    if value.is_instance_of::<PyBool>() || value.is_instance_of::<PyFloat>() {
-        return Err(wrong_type(name, value, expected));
-    }
-    match value.extract::<i64>() {
-        Ok(v) => Ok(Some(Int::Signed(v))),
-        Err(e) if e.is_instance_of::<PyOverflowError>(value.py()) => Ok(value.extract::<u64>().ok().map(Int::Unsigned)),
-        Err(_) => Err(wrong_type(name, value, expected)),
-    }
-}
-
-/// An unsigned integer argument described as `expected` ("a non-negative int", ...).
-fn unsigned(name: &str, value: &Bound<'_, PyAny>, expected: &str) -> PyResult<u64> {
-    match int(name, value, expected)? {
-        Some(Int::Signed(v)) if v >= 0 => Ok(v.unsigned_abs()),
-        Some(Int::Unsigned(v)) => Ok(v),
-        _ => Err(raise(Error::invalid(name, format!("{} (expected {expected})", shown(value))))),
-    }
+/// The argument `name` as a setting: checked by the core's rules ([`Setting`]).
+fn setting<'a>(name: &'a str, value: &Bound<'_, PyAny>) -> Setting<'a> {
+    Setting { name, value: given(value), shown: shown(value) }
 }
 
 /// A count (`samples`, `episodes`, `threads`, ...): a non-negative int.
 pub fn count(name: &str, value: &Bound<'_, PyAny>) -> PyResult<usize> {
-    let n = unsigned(name, value, "a non-negative int")?;
-    usize::try_from(n).map_err(|_| raise(Error::invalid(name, format!("{n} (expected a smaller int)"))))
+    setting(name, value).count().map_err(raise)
 }
 
 /// [`count`], or `None`.
 pub fn optional_count(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<usize>> {
-    value.filter(|v| !v.is_none()).map(|v| count(name, v)).transpose()
+    value.map_or(Ok(None), |v| setting(name, v).optional_count().map_err(raise))
 }
 
 /// A seed (or a count of 64 bits): an int in `0..2**64`.
 pub fn seed(name: &str, value: &Bound<'_, PyAny>) -> PyResult<u64> {
-    unsigned(name, value, "an int in 0..2**64")
+    setting(name, value).seed().map_err(raise)
 }
 
 /// A real number: an int or a float (numpy's too), not a bool or a string.
 pub fn real(name: &str, value: &Bound<'_, PyAny>) -> PyResult<f64> {
-    if value.is_instance_of::<PyBool>() || value.is_instance_of::<PyString>() {
-        return Err(wrong_type(name, value, "a number"));
-    }
-    value.extract::<f64>().map_err(|_| wrong_type(name, value, "a number"))
+    setting(name, value).real().map_err(raise)
 }
 
 /// [`real`], or `None`.
 pub fn optional_real(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<f64>> {
-    value.filter(|v| !v.is_none()).map(|v| real(name, v)).transpose()
+    value.map_or(Ok(None), |v| setting(name, v).optional_real().map_err(raise))
 }
 
 /// A bool (or numpy bool).
 pub fn flag(name: &str, value: &Bound<'_, PyAny>) -> PyResult<bool> {
-    value.extract::<bool>().map_err(|_| wrong_type(name, value, "True or False"))
+    setting(name, value).flag().map_err(raise)
 }
 
 /// A string (a choice such as `memory_update`, whose values the core checks).
 pub fn text(name: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
-    value.extract::<String>().map_err(|_| wrong_type(name, value, "a str"))
+    setting(name, value).choice(|t| Ok(t.to_owned())).map_err(raise)
 }
 
 /// Memory sizes per level, bottom first: a sequence of ints (the core checks their range).
@@ -106,13 +80,10 @@ pub fn levels(value: &Bound<'_, PyAny>) -> PyResult<Vec<usize>> {
         .enumerate()
         .map(|(k, item)| {
             let message = format!("{all}: level {} is {} (expected a positive int)", k + 1, shown(item));
-            match int("levels", item, "a positive int") {
-                Ok(Some(Int::Signed(v))) => usize::try_from(v).ok(),
-                Ok(Some(Int::Unsigned(v))) => usize::try_from(v).ok(),
-                Ok(None) => None,
-                Err(_) => return Err(raise(Error::wrong_type("levels", message))),
+            match given(item) {
+                Given::Int(v) => usize::try_from(v).map_err(|_| raise(Error::invalid("levels", message))),
+                _ => Err(raise(Error::wrong_type("levels", message))),
             }
-            .ok_or_else(|| raise(Error::invalid("levels", message)))
         })
         .collect()
 }
@@ -146,10 +117,13 @@ pub fn to_json(name: &str, value: &Bound<'_, PyAny>) -> PyResult<Value> {
         return Ok(Value::Object(map));
     }
     if value.is_instance_of::<PyInt>() || (!value.is_instance_of::<PyFloat>() && value.hasattr("__index__")?) {
-        return match int(name, value, expected)? {
-            Some(Int::Signed(v)) => Ok(v.into()),
-            Some(Int::Unsigned(v)) => Ok(v.into()),
-            None => Err(raise(Error::invalid(name, format!("{} (expected an int of 64 bits)", shown(value))))),
+        let out_of_range = || raise(Error::invalid(name, format!("{} (expected an int of 64 bits)", shown(value))));
+        return match given(value) {
+            Given::Int(v) => i64::try_from(v)
+                .map(Value::from)
+                .or_else(|_| u64::try_from(v).map(Value::from))
+                .map_err(|_| out_of_range()),
+            _ => Err(wrong_type(name, value, expected)),
         };
     }
     let x = value.extract::<f64>().map_err(|_| wrong_type(name, value, expected))?;

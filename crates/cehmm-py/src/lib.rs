@@ -60,8 +60,6 @@ mod _core {
     #[pymodule_export]
     use super::remote::PyRemoteWorld;
     #[pymodule_export]
-    use super::results::{PyEvaluation, PyExactValue, PyRollout, PyWindowEvaluation};
-    #[pymodule_export]
     use super::run::run;
     #[pymodule_export]
     use super::shards::{controller_exact_values, controller_values};

@@ -14,7 +14,6 @@ use ceworld::run::RunOptions;
 use crate::arg::WorldArg;
 use crate::convert::{apply_settings, columns, flag};
 use crate::policy::PyPolicy;
-use crate::results::PyEvaluation;
 use crate::run::{checkpointing, watched};
 
 /// Runs the cross-entropy method (model §3) from `initial` with `settings` (keyword settings by
@@ -48,7 +47,7 @@ pub fn optimize<'py>(
     result.set_item("history", columns(py, &r.history)?)?;
     result.set_item("policy", PyPolicy { file: best })?;
     result.set_item("last_policy", PyPolicy { file: last })?;
-    result.set_item("evaluation", PyEvaluation(r.evaluation.clone()))?;
+    result.set_item("evaluation", crate::results::evaluation(py, &r.evaluation)?)?;
     result.set_item("stop_reason", r.stop.as_str())?;
     result.set_item("interrupted", r.interrupted())?;
     result.set_item("best_iteration", r.best_iteration)?;

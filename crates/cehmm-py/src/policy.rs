@@ -16,7 +16,6 @@ use crate::arg::WorldArg;
 use crate::convert::{count, flag, levels, object, optional_count, real, seed, shape_text, text, to_py};
 use crate::errors::{OrRaise, detached, raise};
 use crate::outside::run_outside;
-use crate::results::{PyEvaluation, PyExactValue, PyRollout};
 use crate::signals::Signals;
 use crate::world::PyWorld;
 
@@ -211,14 +210,14 @@ impl PyPolicy {
 
     /// Reward statistics over `episodes` fresh episodes (streams `(seed, Evaluate, 0, k)`).
     #[pyo3(signature = (world, episodes, seed, threads = None))]
-    fn evaluate(
+    fn evaluate<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         world: &Bound<'_, PyAny>,
         episodes: &Bound<'_, PyAny>,
         seed: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<PyEvaluation> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         let (episodes, seed_, threads) =
             (count("episodes", episodes)?, self::seed("seed", seed)?, optional_count("threads", threads)?);
         ceworld::evaluate::check_episodes(episodes).or_raise()?;
@@ -231,8 +230,7 @@ impl PyPolicy {
             .run_watched(py, &mut signals, |w| pool.install(|| ceworld::evaluate::rewards(w, policy, episodes, seed_)));
         signals.finish(py)?;
         let rewards = rewards?;
-        let evaluation = ceworld::Evaluation::from_rewards(&rewards);
-        Ok(PyEvaluation(evaluation))
+        crate::results::evaluation(py, &ceworld::Evaluation::from_rewards(&rewards))
     }
 
     /// Rewards of episodes `first..first + n` of `(seed, purpose, iteration)` (`purpose`:
@@ -296,13 +294,13 @@ impl PyPolicy {
 
     /// One recorded episode: episode `episode` of `evaluate(world, _, seed)`.
     #[pyo3(signature = (world, seed, episode))]
-    fn rollout(
+    fn rollout<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         world: &Bound<'_, PyAny>,
         seed: &Bound<'_, PyAny>,
         episode: &Bound<'_, PyAny>,
-    ) -> PyResult<PyRollout> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         let (seed, episode) = (self::seed("seed", seed)?, self::seed("episode", episode)?);
         let policy = &self.file.policy;
         let recorded = match WorldArg::of(world)? {
@@ -320,20 +318,20 @@ impl PyPolicy {
                 )));
             }
         };
-        Ok(PyRollout(recorded))
+        crate::results::rollout(py, recorded)
     }
 
     /// The exact expected reward on a tabular world (model §7): at `horizon` (the world's when
     /// `None`), or with `infinite` the infinite-horizon value to within `tolerance`.
     #[pyo3(signature = (world, horizon, infinite, tolerance))]
-    fn evaluate_exact(
+    fn evaluate_exact<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         world: &Bound<'_, PyAny>,
         horizon: Option<&Bound<'_, PyAny>>,
         infinite: &Bound<'_, PyAny>,
         tolerance: &Bound<'_, PyAny>,
-    ) -> PyResult<PyExactValue> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         let world = &tabular(world, "exact evaluation")?;
         let (horizon, infinite, tolerance) =
             (optional_count("horizon", horizon)?, flag("infinite", infinite)?, real("tolerance", tolerance)?);
@@ -345,7 +343,7 @@ impl PyPolicy {
                 ceworld::exact::finite_horizon(world, policy, horizon)
             }
         })?;
-        Ok(PyExactValue(value))
+        crate::results::exact_value(py, &value)
     }
 
     /// The policy as a policy graph on a tabular world (`ceworld::policy::graph`): `"text"` in

@@ -14,7 +14,6 @@ use ceworld::{Error, World, thread_pool, with_learner};
 use crate::convert::{apply_settings, count, flag, optional_count, optional_real, real, seed, text, to_py};
 use crate::errors::{OrRaise, detached, raise};
 use crate::policy::PyPolicy;
-use crate::results::PyWindowEvaluation;
 use crate::signals::Signals;
 use crate::world::PyWorld;
 
@@ -34,30 +33,30 @@ fn q_config(settings: &Bound<'_, PyDict>) -> PyResult<QConfig> {
     Ok(config)
 }
 
-/// A `WindowEvaluation` of the report of `evaluate` with `reference` as 100 %.
+/// The report of `evaluate` with `reference` as 100 % (`cehmm.WindowEvaluation`'s fields).
 fn windows(
     py: Python<'_>,
     threads: Option<usize>,
     reference: f64,
     evaluate: impl FnOnce() -> ceworld::Result<ceworld::WindowReport> + Send,
-) -> PyResult<PyWindowEvaluation> {
+) -> PyResult<Bound<'_, PyDict>> {
     let report = detached(py, || thread_pool(threads)?.install(evaluate))?;
-    Ok(PyWindowEvaluation { report, reference })
+    crate::results::windows(py, &report, reference)
 }
 
 /// An HHMM policy evaluated on windows of a continuing run, as the paper compares policies (see
 /// `ceworld::qlearn::evaluate_windows`).
 #[pyfunction]
 #[pyo3(signature = (policy, world, settings, *, seed, threads, reference))]
-pub fn evaluate_policy_windows(
-    py: Python<'_>,
+pub fn evaluate_policy_windows<'py>(
+    py: Python<'py>,
     policy: &PyPolicy,
     world: &PyWorld,
     settings: &Bound<'_, PyDict>,
     seed: &Bound<'_, PyAny>,
     threads: Option<&Bound<'_, PyAny>>,
     reference: &Bound<'_, PyAny>,
-) -> PyResult<PyWindowEvaluation> {
+) -> PyResult<Bound<'py, PyDict>> {
     let (config, seed) = (window_config(settings)?, self::seed("seed", seed)?);
     let (world, policy) = (&world.world, &policy.file.policy);
     let threads = optional_count("threads", threads)?;
@@ -142,16 +141,16 @@ impl PyQLearner {
     /// `ties` says otherwise.
     #[pyo3(signature = (world, settings, *, seed, threads, reference, ties))]
     #[allow(clippy::too_many_arguments)]
-    fn evaluate_windows(
+    fn evaluate_windows<'py>(
         &self,
-        py: Python<'_>,
+        py: Python<'py>,
         world: &PyWorld,
         settings: &Bound<'_, PyDict>,
         seed: &Bound<'_, PyAny>,
         threads: Option<&Bound<'_, PyAny>>,
         reference: &Bound<'_, PyAny>,
         ties: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<PyWindowEvaluation> {
+    ) -> PyResult<Bound<'py, PyDict>> {
         let (config, seed) = (window_config(settings)?, self::seed("seed", seed)?);
         let ties = match ties.filter(|t| !t.is_none()) {
             Some(t) => Some(Ties::parse(&text("ties", t)?).or_raise()?),
@@ -162,64 +161,10 @@ impl PyQLearner {
         windows(py, threads, real("reference", reference)?, || learner.evaluate_windows(world, ties, &config, seed))
     }
 
-    /// Updates run so far.
-    #[getter]
-    fn updates(&self) -> u64 {
-        with_learner!(&self.learner, q => q.updates())
-    }
-
-    /// Number of known states (rows of the table).
-    #[getter]
-    fn n_states(&self) -> usize {
-        with_learner!(&self.learner, q => q.table().n_states())
-    }
-
-    /// Number of actions (columns of the table).
-    #[getter]
-    fn n_actions(&self) -> usize {
-        with_learner!(&self.learner, q => q.table().n_actions())
-    }
-
     /// Size of the table in bytes.
     #[getter]
     fn table_bytes(&self) -> u64 {
         with_learner!(&self.learner, q => q.table().bytes())
-    }
-
-    /// Discount `γ`.
-    #[getter]
-    fn gamma(&self) -> f64 {
-        with_learner!(&self.learner, q => q.config().gamma)
-    }
-
-    /// Learning rate `α`.
-    #[getter]
-    fn alpha(&self) -> f64 {
-        with_learner!(&self.learner, q => q.config().alpha)
-    }
-
-    /// Seed of the run's random stream.
-    #[getter]
-    fn seed(&self) -> u64 {
-        with_learner!(&self.learner, q => q.config().seed)
-    }
-
-    /// How greedy ties are broken: `"random"` or `"lowest"`.
-    #[getter]
-    fn ties(&self) -> &'static str {
-        with_learner!(&self.learner, q => q.config().ties.as_str())
-    }
-
-    /// Sum of the rewards of every update so far.
-    #[getter]
-    fn reward_total(&self) -> f64 {
-        with_learner!(&self.learner, q => q.reward_total())
-    }
-
-    /// Seconds spent learning, over every session.
-    #[getter]
-    fn seconds(&self) -> f64 {
-        with_learner!(&self.learner, q => q.seconds())
     }
 
     /// The header of the run's file (settings, counters, random stream, world state) as a dict.

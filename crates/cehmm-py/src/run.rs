@@ -14,7 +14,6 @@ use crate::arg::WorldArg;
 use crate::convert::{columns, flag, named, optional_real, to_py};
 use crate::errors::raise;
 use crate::policy::PyPolicy;
-use crate::results::PyEvaluation;
 use crate::signals::Signals;
 
 /// Every optimiser's checkpoint arguments: where, how often (seconds), whether to resume; a
@@ -101,7 +100,7 @@ pub fn run<'py>(
     let result = PyDict::new(py);
     result.set_item("history", columns(py, &outcome.history)?)?;
     result.set_item("policy", PyPolicy { file })?;
-    result.set_item("evaluation", PyEvaluation(outcome.evaluation))?;
+    result.set_item("evaluation", crate::results::evaluation(py, &outcome.evaluation)?)?;
     result.set_item("stop_reason", outcome.stop.as_str())?;
     result.set_item("seconds", outcome.seconds)?;
     Ok(result)

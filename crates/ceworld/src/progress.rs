@@ -8,6 +8,8 @@ use std::time::{Duration, Instant};
 
 use crate::ce::controller::ControllerIteration;
 use crate::ce::record::IterationRecord;
+use crate::evaluate::Evaluation;
+use crate::qlearn::{WindowReport, percent};
 
 /// Seconds between two plain lines when stderr is not a terminal.
 pub const PLAIN_EVERY: Duration = Duration::from_secs(5);
@@ -192,6 +194,34 @@ pub fn decimals(se: f64) -> usize {
 /// `x` with `decimals` decimals.
 pub fn fixed(x: f64, decimals: usize) -> String {
     format!("{x:.decimals$}")
+}
+
+/// An evaluation in a line (`Evaluation(...)` in Python shows it): every figure to the
+/// precision of the standard error.
+pub fn evaluation(e: &Evaluation) -> String {
+    let median = e.quantiles.iter().find(|(q, _)| *q == 0.5).map_or(f64::NAN, |&(_, v)| v);
+    let f = |x: f64| fixed(x, decimals(e.std_error));
+    format!(
+        "mean={} ± {}, episodes={}, std={}, min={}, max={}, median={}",
+        f(e.mean),
+        f(e.std_error),
+        e.episodes,
+        f(e.std),
+        f(e.min),
+        f(e.max),
+        f(median)
+    )
+}
+
+/// Windows of a policy's runs in a line, in % of `reference` (`WindowEvaluation(...)`).
+pub fn windows(report: &WindowReport, reference: f64) -> String {
+    let p = |e: &Evaluation| (percent(e.min, reference), percent(e.mean, reference), percent(e.max, reference));
+    let (a, b) = (p(&report.from_start), p(&report.continuing));
+    format!(
+        "from_start: worst/mean/best {:.0}/{:.0}/{:.0} % over {} windows; continuing: {:.0}/{:.0}/{:.0} % over {} \
+         windows; of {reference}",
+        a.0, a.1, a.2, report.from_start.episodes, b.0, b.1, b.2, report.continuing.episodes
+    )
 }
 
 #[cfg(test)]

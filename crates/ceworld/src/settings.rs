@@ -88,6 +88,14 @@ impl Setting<'_> {
         if self.value == Given::Nothing { Ok(None) } else { self.real().map(Some) }
     }
 
+    /// `True` or `False`.
+    pub fn flag(&self) -> Result<bool> {
+        match self.value {
+            Given::Bool(b) => Ok(b),
+            _ => Err(self.wrong("True or False")),
+        }
+    }
+
     /// A choice by name, parsed by `parse` (which names the choices on failure).
     pub fn choice<T>(&self, parse: impl FnOnce(&str) -> Result<T>) -> Result<T> {
         match &self.value {

@@ -1,8 +1,8 @@
 //! Settings by name (`ceworld::settings`): every setting a config serialises can be set by that
 //! name, so that a new setting reaches Python, checkpoints and provenance from its config alone.
 
-use ceworld::settings::{Given, Setting, Settings};
 use ceworld::qlearn::Ties;
+use ceworld::settings::{Given, Setting, Settings};
 use ceworld::{CeConfig, ControllerConfig, Error, QConfig, WindowConfig};
 use serde_json::{Value, json};
 
@@ -156,4 +156,14 @@ fn q_and_window_settings_are_checked_by_kind_and_name() {
     assert!(w.validate().unwrap_err().to_string().contains("window"));
     q.set(&setting("gamma", &json!(1))).unwrap();
     assert!(q.validate().unwrap_err().to_string().contains("gamma"));
+}
+
+#[test]
+fn a_flag_is_a_bool_and_nothing_else() {
+    let flag = |value: Given| Setting { name: "progress", value, shown: "x".into() }.flag();
+    assert!(flag(Given::Bool(true)).unwrap() && !flag(Given::Bool(false)).unwrap());
+    for other in [Given::Int(1), Given::Real(1.0), Given::Text("yes".into()), Given::Nothing, Given::Other] {
+        let e = flag(other).unwrap_err();
+        assert!(matches!(e, Error::WrongType { .. }) && e.to_string().contains("True or False"), "{e}");
+    }
 }
