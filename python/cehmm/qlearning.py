@@ -336,16 +336,7 @@ def evaluate_windows(
         window=window, episodes=episodes, chains=chains, burn_in=burn_in, windows_per_chain=windows_per_chain
     )
     if isinstance(policy, QLearner):
-        return windows(
-            policy._core.evaluate_windows(
-                core_world(policy.world if world is None else world),
-                settings,
-                seed=seed,
-                threads=threads,
-                reference=reference,
-                ties=None,
-            )
-        )
+        return policy.evaluate_windows(world, seed=seed, threads=threads, reference=reference, **settings)
     if not isinstance(policy, Policy):
         raise TypeError(f"invalid policy: {policy!r} (expected a cehmm.Policy or a cehmm.QLearner)")
     if world is None:
