@@ -129,5 +129,39 @@ fn bench_world<W: World>(
     });
 }
 
-criterion_group!(benches, steps, episode, ce_iteration, tabular_steps);
+/// The exact value of one controller (model §8) of hallway at 8, 32 and 64 nodes (seeded random
+/// controllers, which reach most (state, node) pairs), beside the exact evaluation of the same
+/// controller as an HHMM (`exact::infinite_horizon`, the general recursion) as the in-run
+/// reference: `cargo bench -p ceworld -- exact_controller_value`.
+fn exact_controller_value(c: &mut Criterion) {
+    use ceworld::ce::controller::{Controller, ControllerValue};
+    use rand::RngExt;
+    let path = format!("{}/../../data/pomdp/hallway.POMDP", env!("CARGO_MANIFEST_DIR"));
+    let world = PomdpWorld::from_file(path, 100, None).unwrap();
+    let t = world.tables();
+    let (y1, n_a) = (t.n_observations() + 1, t.n_actions());
+    let mut group = c.benchmark_group("exact_controller_value");
+    group.sample_size(10);
+    for n in [8usize, 32, 64] {
+        let mut rng = stream(7, Purpose::Evaluate, 0, n as u64);
+        let controller = Controller {
+            act: (0..n).map(|_| rng.random_range(0..n_a as u32)).collect(),
+            next: (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
+        };
+        let values = ControllerValue::new(&world, 1e-6);
+        let mut scratch = (Vec::new(), Vec::new());
+        group.bench_function(format!("hallway {n} nodes"), |b| {
+            b.iter(|| black_box(values.value(&controller, &mut scratch.0, &mut scratch.1)));
+        });
+        if n == 8 {
+            let policy = controller.to_hhmm(y1, n_a).unwrap();
+            group.bench_function(format!("hallway {n} nodes as an HHMM (reference)"), |b| {
+                b.iter(|| black_box(ceworld::exact::infinite_horizon(&world, &policy, 1e-6).unwrap().value));
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, steps, episode, ce_iteration, tabular_steps, exact_controller_value);
 criterion_main!(benches);
