@@ -260,10 +260,11 @@ class QLearner:
         return self._core.state_index([int(v) for v in state], y)
 
     def __repr__(self) -> str:
+        h = self.header  # one read of the run's counters and settings
         return (
-            f"QLearner(updates={self.updates}, states={self.n_states}, actions={self.n_actions}, "
-            f"gamma={self.gamma:g}, alpha={self.alpha:g}, ties={self.ties!r}, seed={self.seed}, "
-            f"reward_per_100={100.0 * self.reward_total / max(self.updates, 1):.2f})"
+            f"QLearner(updates={h['updates']}, states={h['n_states']}, actions={h['n_actions']}, "
+            f"gamma={h['gamma']:g}, alpha={h['alpha']:g}, ties={h['ties']!r}, seed={h['seed']}, "
+            f"reward_per_100={100.0 * h['reward_total'] / max(h['updates'], 1):.2f})"
         )
 
 

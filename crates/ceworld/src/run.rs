@@ -174,7 +174,7 @@ fn run_named<O: Stepped>(
 ) -> Result<(SteppedOutcome, PolicyFile)> {
     let mut config = O::Config::default();
     apply(&mut config, settings)?;
-    O::validate(&config)?;
+    // `run_stepped` validates it before it starts.
     let rules = O::rules(&config);
     let outcome =
         options.watch(rules.patience, 1, |observe| run_stepped::<O>(world, &config, options.checkpointing, observe))?;

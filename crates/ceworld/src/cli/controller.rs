@@ -4,7 +4,7 @@
 use crate::Result;
 use crate::ce::controller::{ControllerConfig, Template, ValueKind};
 use crate::episodes::Episodes;
-use crate::run::{self, RunOptions};
+use crate::run;
 
 use crate::cli::{OutputArgs, WorldArgs, stop, world_from};
 
@@ -55,7 +55,7 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
     args.output.check::<crate::ce::controller::checkpoint::ControllerSearch>(&args.world.files())?;
     let checkpointing = args.output.checkpointing()?;
     stop::install();
-    let options = RunOptions { progress: !args.output.quiet, checkpointing: checkpointing.as_ref(), stop: &stop::flow };
+    let options = args.output.run_options(checkpointing.as_ref());
     let outcome = run::controller(valued, &config, &options)?;
     let file = outcome.to_file(valued.episodes(), &config);
     args.output.save(&file, &outcome.history, outcome.checkpoint_error.as_deref())?;

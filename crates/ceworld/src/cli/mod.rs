@@ -13,7 +13,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::progress::{decimals, fixed};
-use crate::run::RunOptions;
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use output::OutputArgs;
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
@@ -320,7 +319,7 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
         );
     }
     let checkpointing = args.output.checkpointing()?;
-    let options = RunOptions { progress: !args.output.quiet, checkpointing: checkpointing.as_ref(), stop: &stop::flow };
+    let options = args.output.run_options(checkpointing.as_ref());
     let result = crate::run::optimize(world, initial, &config, &options)?;
     args.output.save(&result.to_file(world, &config), &result.history, result.checkpoint_error.as_deref())?;
     let e = &result.evaluation;

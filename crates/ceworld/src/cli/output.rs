@@ -95,6 +95,12 @@ impl OutputArgs {
         self.checkpoint.checkpointing(self.quiet, outputs)
     }
 
+    /// How a run of the command line is watched: progress unless --quiet, `checkpointing`, and
+    /// a stop on SIGINT or SIGTERM.
+    pub fn run_options<'a>(&self, checkpointing: Option<&'a crate::Checkpointing>) -> crate::run::RunOptions<'a> {
+        crate::run::RunOptions { progress: !self.quiet, checkpointing, stop: &crate::cli::stop::flow }
+    }
+
     /// Saves a run's result: the policy `file` to --out, its `history` to --history if given,
     /// and a warning where its last checkpoint could not be written (`checkpoint_error`).
     pub fn save<T: Serialize>(&self, file: &PolicyFile, history: &[T], checkpoint_error: Option<&str>) -> Result<()> {

@@ -6,7 +6,7 @@ use crate::Result;
 use crate::cli::{OutputArgs, WorldArgs, stop, world_from};
 use crate::error::Error;
 use crate::progress::{decimals, fixed};
-use crate::run::{RunOptions, optimiser};
+use crate::run::optimiser;
 use crate::settings::{Given, Named};
 
 #[derive(clap::Args)]
@@ -56,7 +56,7 @@ pub(crate) fn run_named(args: &RunArgs) -> Result<()> {
     args.output.check_peeked(&args.world.files(), optimiser.peek)?;
     let checkpointing = args.output.checkpointing()?;
     stop::install();
-    let options = RunOptions { progress: !args.output.quiet, checkpointing: checkpointing.as_ref(), stop: &stop::flow };
+    let options = args.output.run_options(checkpointing.as_ref());
     let (outcome, file) = crate::with_world!(&world, w => (optimiser.run)(w, &settings, &options))?;
     args.output.save(&file, &outcome.history, outcome.checkpoint_error.as_deref())?;
     let e = &outcome.evaluation;
