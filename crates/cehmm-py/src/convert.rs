@@ -156,20 +156,15 @@ pub fn to_py<'py>(py: Python<'py>, value: &Value) -> PyResult<Bound<'py, PyAny>>
     })
 }
 
-/// A JSON object from a Python mapping (`None`: an empty object).
-pub fn object(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Value> {
+/// A JSON object from a Python dict (`None`: an empty object).
+pub fn object(name: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Map<String, Value>> {
     match value.filter(|v| !v.is_none()) {
-        None => Ok(Value::Object(Map::new())),
-        Some(v) if v.is_instance_of::<PyDict>() => to_json(name, v),
+        None => Ok(Map::new()),
+        Some(v) if v.is_instance_of::<PyDict>() => match to_json(name, v)? {
+            Value::Object(map) => Ok(map),
+            _ => Err(wrong_type(name, v, "a dict")),
+        },
         Some(v) => Err(wrong_type(name, v, "a dict")),
-    }
-}
-
-/// `(16, 16)`: a shape as Python prints it.
-pub fn shape_text(dims: &[usize]) -> String {
-    match dims {
-        [one] => format!("({one},)"),
-        _ => format!("({})", dims.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")),
     }
 }
 

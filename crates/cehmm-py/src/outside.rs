@@ -55,19 +55,10 @@ impl PyOutsideWorld {
             horizon: count("horizon", horizon)?,
         };
         let batch = if batched { count("batch", batch)? } else { 1 };
-        let discount = real("discount", discount)?;
-        if !(0.0..=1.0).contains(&discount) {
-            return Err(raise(Error::invalid("discount", format!("{discount} (expected 0 <= discount <= 1)"))));
-        }
-        let mut description = object("description", Some(description))?;
-        description["name"] = Value::from(ceworld::episodes::outside::NAME);
-        for (key, value) in
-            [("observations", shape.observations), ("decisions", shape.decisions), ("horizon", shape.horizon)]
-        {
-            description[key] = Value::from(value);
-        }
+        let (discount, description) = (real("discount", discount)?, object("description", Some(description))?);
+        let description = ceworld::episodes::outside::describe(description, shape);
         let world = PyOutsideWorld { world, shape, batched, batch, description, discount, score };
-        // The checks of the engine (sizes, batch), now rather than at the first run.
+        // The checks of the engine (sizes, batch, discount), now rather than at the first run.
         Lockstep::new(world.batch_world()).map_err(raise)?;
         Ok(world)
     }
@@ -315,6 +306,10 @@ impl BatchWorld for PyBatch {
         // A thread state made once for the whole batch, the interpreter released meanwhile:
         // each call of the world's code then only takes the GIL (≈ 0.1 µs, not ≈ 8 µs).
         Python::attach(|py| py.detach(f))
+    }
+
+    fn discount(&self) -> f64 {
+        self.world.discount
     }
 
     fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {

@@ -13,13 +13,11 @@ use ceworld::evaluate::{check_fits, rollout};
 use ceworld::{Error, Hhmm, Init, Layout, PolicyFile, thread_pool, with_world};
 
 use crate::arg::WorldArg;
-use crate::convert::{count, flag, levels, object, optional_count, real, seed, shape_text, text, to_py};
+use crate::convert::{count, flag, levels, object, optional_count, real, seed, text, to_py};
 use crate::errors::{OrRaise, detached, raise};
 use crate::outside::run_outside;
 use crate::signals::Signals;
 use crate::world::PyWorld;
-
-/// Episodes evaluated between two runs of the signal handlers.
 
 #[pyclass(module = "cehmm._core", name = "Policy", frozen)]
 pub struct PyPolicy {
@@ -30,30 +28,6 @@ impl PyPolicy {
     pub fn new(policy: Hhmm, world: Value, provenance: Value) -> Self {
         PyPolicy { file: PolicyFile { policy, world, provenance } }
     }
-}
-
-/// A policy table read from numpy, checked against its expected shape.
-fn table_entries(name: &str, array: &PyReadonlyArrayDyn<'_, f64>, dims: &[usize], out: &mut Vec<f64>) -> PyResult<()> {
-    if array.shape() != dims {
-        return Err(raise(Error::format(format!(
-            "{name} has shape {} (expected {})",
-            shape_text(array.shape()),
-            shape_text(dims)
-        ))));
-    }
-    out.extend(array.as_array().iter().copied());
-    Ok(())
-}
-
-/// A table's size along `axis`, or a format error naming the table and the rank it needs.
-fn dim(name: &str, array: &PyReadonlyArrayDyn<'_, f64>, rank: usize, axes: &str, axis: usize) -> PyResult<usize> {
-    if array.ndim() != rank {
-        return Err(raise(Error::format(format!(
-            "{name} has shape {} (expected {rank} axes {axes})",
-            shape_text(array.shape())
-        ))));
-    }
-    Ok(array.shape()[axis])
 }
 
 #[pymethods]
@@ -86,30 +60,16 @@ impl PyPolicy {
         world: Option<&Bound<'_, PyAny>>,
         provenance: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
-        let mut sizes = vec![dim("h0", &h0, 2, "(|M_1|, D)", 0)?];
-        let n_actions = dim("h0", &h0, 2, "(|M_1|, D)", 1)?;
-        let n_obs = dim("h1", &h1, 3, "(Y, U, |M_1|)", 0)?;
-        for (k, (start, step)) in upper.iter().enumerate() {
-            sizes.push(dim(&format!("upper[{k}].start"), start, 2, "(U, |M_l|)", 1)?);
-            dim(&format!("upper[{k}].step"), step, 3, "(|M_l-1|, U, |M_l|)", 0)?;
-        }
-        let layout = Layout::new(n_obs, n_actions, &sizes).map_err(|e| raise(Error::format(e.to_string())))?;
-        let mut probs = Vec::with_capacity(layout.len);
-        table_entries("h0", &h0, &layout.tables[0].dims, &mut probs)?;
-        table_entries("h1", &h1, &layout.tables[1].dims, &mut probs)?;
-        for (k, (start, step)) in upper.iter().enumerate() {
-            let level = k + 2;
-            let (start_dims, step_dims) =
-                (&layout.tables[Layout::start_table(level)].dims, &layout.tables[Layout::step_table(level)].dims);
-            table_entries(&format!("upper[{k}].start"), start, start_dims, &mut probs)?;
-            table_entries(&format!("upper[{k}].step"), step, step_dims, &mut probs)?;
-        }
-        let policy = Hhmm::from_flat(layout, probs).or_raise()?;
+        let arrays: Vec<_> =
+            [&h0, &h1].into_iter().chain(upper.iter().flat_map(|(start, step)| [start, step])).collect();
+        let entries: Vec<Vec<f64>> = arrays.iter().map(|a| a.as_array().iter().copied().collect()).collect();
+        let shaped: Vec<_> = arrays.iter().zip(&entries).map(|(a, e)| (a.shape(), e.as_slice())).collect();
+        let policy = Hhmm::from_shaped(&shaped).or_raise()?;
         let world = match world {
             Some(w) => WorldArg::of(w)?.run(py, |w| check_fits(w, &policy).map(|()| w.description()))?,
             None => json!({}),
         };
-        Ok(Self::new(policy, world, object("provenance", provenance)?))
+        Ok(Self::new(policy, world, Value::Object(object("provenance", provenance)?)))
     }
 
     /// Reads and checks a policy file (model §6).
@@ -356,23 +316,10 @@ impl PyPolicy {
         form: &str,
         prune: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let prune = real("prune", prune)?;
-        if !(0.0..1.0).contains(&prune) {
-            return Err(raise(Error::invalid("prune", format!("{prune} (expected a probability 0 <= p < 1)"))));
-        }
         let world = tabular(world, "a policy graph")?;
-        let graph = world.graph(&self.file.policy, prune).or_raise()?;
+        let graph = world.graph(&self.file.policy, real("prune", prune)?).or_raise()?;
         let model = &world.tables().pomdp;
-        match form {
-            "text" => Ok(graph.describe(&model.actions, &model.observations).into_pyobject(py)?.into_any()),
-            "pg" => Ok(graph.to_pg().or_raise()?.into_pyobject(py)?.into_any()),
-            "json" => to_py(py, &graph.to_json(&model.actions, &model.observations)),
-            "dot" => Ok(graph.to_dot(&model.actions, &model.observations).into_pyobject(py)?.into_any()),
-            other => Err(raise(Error::invalid(
-                "form",
-                format!("{other:?} (expected \"text\", \"json\", \"dot\" or \"pg\")"),
-            ))),
-        }
+        to_py(py, &graph.render(form, &model.actions, &model.observations).or_raise()?)
     }
 }
 

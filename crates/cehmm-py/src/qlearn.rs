@@ -8,11 +8,11 @@ use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ceworld::qlearn::{AnyLearner, KnownState, QConfig, Ties, WindowConfig};
-use ceworld::{Error, World, thread_pool, with_learner};
+use ceworld::qlearn::{AnyLearner, QConfig, Ties, WindowConfig};
+use ceworld::{thread_pool, with_learner};
 
 use crate::convert::{apply_settings, count, flag, optional_count, optional_real, real, seed, text, to_py};
-use crate::errors::{OrRaise, detached, raise};
+use crate::errors::{OrRaise, detached};
 use crate::policy::PyPolicy;
 use crate::signals::Signals;
 use crate::world::PyWorld;
@@ -188,27 +188,12 @@ impl PyQLearner {
 
     /// `Q(s, ·)`, float32, shape `(n_actions,)`.
     fn row<'py>(&self, py: Python<'py>, state: &Bound<'_, PyAny>) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let state = count("state", state)?;
-        with_learner!(&self.learner, q => {
-            let t = q.table();
-            if state >= t.n_states() {
-                return Err(raise(Error::invalid("state", format!("{state} (expected < {})", t.n_states()))));
-            }
-            Ok(PyArray1::from_slice(py, t.row(state)))
-        })
+        Ok(PyArray1::from_vec(py, self.learner.row(count("state", state)?).or_raise()?))
     }
 
     /// The known state of a world state (as `World::describe` writes it) seen through
     /// observation `y`.
     fn state_index(&self, state: Vec<i64>, y: &Bound<'_, PyAny>) -> PyResult<usize> {
-        let y = count("y", y)?;
-        with_learner!(&self.learner, q => {
-            let world = q.world();
-            if y >= world.n_observations() {
-                return Err(raise(Error::invalid("y", format!("{y} (expected < {})", world.n_observations()))));
-            }
-            let state = world.restore(&state).map_err(|e| raise(Error::invalid("state", e.to_string())))?;
-            Ok(world.known_state(&state, y))
-        })
+        self.learner.state_index(&state, count("y", y)?).or_raise()
     }
 }

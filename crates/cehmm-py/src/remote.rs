@@ -11,8 +11,8 @@
 //! `controller_values(controllers, seed, purpose, iteration, episodes)` and
 //! `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
 //! returning at once a pending answer ([`PENDING`]: `wait(seconds) -> bool`,
-//! `result() -> numpy array` and `cancel()`): the engine waits in short slices, so that Ctrl-C
-//! cancels what is still running. On the engine's side the same four are the [`Episodes`]
+//! `result() -> numpy array` and `cancel()`), waited for by `ceworld::episodes::wait_for`, so
+//! that Ctrl-C cancels what is still running. On the engine's side the same four are the [`Episodes`]
 //! methods `run` and `run_controllers` and the trait [`ceworld::episodes::Remote`].
 
 use std::sync::Mutex;
@@ -22,7 +22,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use serde_json::{Value, json};
 
-use ceworld::episodes::{Batch, Episodes, Shape, Streams};
+use ceworld::episodes::{Batch, Episodes, Pending, Shape, Streams, wait_for};
 use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
 use ceworld::{Error, Hhmm, Interrupt, PolicyFile};
@@ -38,9 +38,6 @@ pub const PENDING: [&str; 3] = [WAIT_FOR, RESULT, CANCEL];
 const WAIT_FOR: &str = "wait";
 const RESULT: &str = "result";
 const CANCEL: &str = "cancel";
-
-/// How long the engine waits for a pending answer before it looks for Ctrl-C again (seconds).
-const WAIT: f64 = 0.05;
 
 /// A world sampled by `backend`: its shape and description, taken from the world itself.
 #[pyclass(module = "cehmm._core", name = "RemoteWorld", frozen)]
@@ -122,8 +119,8 @@ impl Remote {
         reported
     }
 
-    /// The backend's answer to `method(args)`: `len` numbers, waited for in slices of [`WAIT`]
-    /// seconds; a stop asked meanwhile cancels it.
+    /// The backend's answer to `method(args)`: `len` numbers, waited for by [`wait_for`] (a stop
+    /// asked meanwhile cancels it).
     fn ask<T: numpy::Element + Copy>(
         &self,
         method: &str,
@@ -135,19 +132,9 @@ impl Remote {
             let args = args(py).map_err(|e| self.keep(py, e))?;
             self.backend.bind(py).call_method1(method, args.bind(py)).map(Bound::unbind).map_err(|e| self.keep(py, e))
         })?;
-        loop {
-            if let Err(stop) = self.interrupt.check() {
-                Python::attach(|py| pending.bind(py).call_method0(CANCEL).map(drop).map_err(|e| self.keep(py, e)))?;
-                return Err(stop);
-            }
-            let done = Python::attach(|py| {
-                let done = pending.bind(py).call_method1(WAIT_FOR, (WAIT,)).map_err(|e| self.keep(py, e))?;
-                done.extract::<bool>().map_err(|e| self.keep(py, e))
-            })?;
-            if done {
-                break;
-            }
-        }
+        let pending = Waiting { pending, remote: self };
+        wait_for(&pending, &self.interrupt)?;
+        let pending = pending.pending;
         Python::attach(|py| {
             let answer = pending.bind(py).call_method0(RESULT).map_err(|e| self.keep(py, e))?;
             let array: PyReadonlyArray1<'_, T> = answer.extract().map_err(|e| self.keep(py, e))?;
@@ -167,6 +154,25 @@ impl Remote {
         PolicyFile { policy: policy.clone(), world: self.description.clone(), provenance: json!({}) }
             .to_json()
             .to_string()
+    }
+}
+
+/// A backend's pending answer, its exceptions kept by `remote`.
+struct Waiting<'a> {
+    pending: Py<PyAny>,
+    remote: &'a Remote,
+}
+
+impl Pending for Waiting<'_> {
+    fn wait(&self, seconds: f64) -> ceworld::Result<bool> {
+        Python::attach(|py| {
+            let done = self.pending.bind(py).call_method1(WAIT_FOR, (seconds,)).map_err(|e| self.remote.keep(py, e))?;
+            done.extract::<bool>().map_err(|e| self.remote.keep(py, e))
+        })
+    }
+
+    fn cancel(&self) -> ceworld::Result<()> {
+        Python::attach(|py| self.pending.bind(py).call_method0(CANCEL).map(drop).map_err(|e| self.remote.keep(py, e)))
     }
 }
 

@@ -363,9 +363,7 @@ fn run_show(
     prune: f64,
     force: bool,
 ) -> Result<()> {
-    if !(0.0..1.0).contains(&prune) {
-        return Err(Error::invalid("--prune", format!("{prune} (expected a probability 0 <= p < 1)")));
-    }
+    crate::policy::graph::check_prune("--prune", prune)?;
     let f = PolicyFile::load(file)?;
     let world = AnyWorld::from_json(&f.world)?;
     let world = world

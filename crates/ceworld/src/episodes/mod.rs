@@ -131,6 +131,31 @@ pub trait Remote: Sync {
     }
 }
 
+/// An answer a backend is still working on (the Python protocol `cehmm.backend.Pending`).
+pub trait Pending {
+    /// Waits at most `seconds`; whether the answer is ready.
+    fn wait(&self, seconds: f64) -> Result<bool>;
+    /// Gives up on the answer (what still runs for it is cancelled).
+    fn cancel(&self) -> Result<()>;
+}
+
+/// How long [`wait_for`] waits for a pending answer before it checks for a stop again (seconds).
+pub const WAIT: f64 = 0.05;
+
+/// Waits for `pending` in slices of [`WAIT`] seconds; a stop asked meanwhile cancels it and is
+/// returned.
+pub fn wait_for(pending: &impl Pending, interrupt: &Interrupt) -> Result<()> {
+    loop {
+        if let Err(stop) = interrupt.check() {
+            pending.cancel()?;
+            return Err(stop);
+        }
+        if pending.wait(WAIT)? {
+            return Ok(());
+        }
+    }
+}
+
 /// Episodes a world run by the engine runs in one slice of a long evaluation: the interrupt
 /// is checked between slices (≈ 0.1 s of target tracking on one core).
 pub const SLICE: usize = 1 << 14;
@@ -252,4 +277,42 @@ impl<W: World> Episodes for W {
 pub fn check_fits<E: Episodes + ?Sized>(world: &E, policy: &Hhmm) -> Result<()> {
     let shape = world.shape();
     policy.check_shape(shape.observations, shape.decisions)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use super::*;
+
+    /// Ready after `ready` waits; counts its waits and cancels.
+    struct Counted {
+        ready: usize,
+        waits: Cell<usize>,
+        cancels: Cell<usize>,
+    }
+
+    impl Pending for Counted {
+        fn wait(&self, seconds: f64) -> Result<bool> {
+            assert_eq!(seconds, WAIT);
+            self.waits.set(self.waits.get() + 1);
+            Ok(self.waits.get() >= self.ready)
+        }
+
+        fn cancel(&self) -> Result<()> {
+            self.cancels.set(self.cancels.get() + 1);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_pending_answer_is_waited_for_in_slices_and_cancelled_on_a_stop() {
+        let pending = Counted { ready: 3, waits: Cell::new(0), cancels: Cell::new(0) };
+        wait_for(&pending, &Interrupt::default()).unwrap();
+        assert_eq!((pending.waits.get(), pending.cancels.get()), (3, 0));
+        let (pending, stop) = (Counted { ready: 3, waits: Cell::new(0), cancels: Cell::new(0) }, Interrupt::default());
+        stop.request();
+        assert!(matches!(wait_for(&pending, &stop), Err(crate::Error::Interrupted)));
+        assert_eq!((pending.waits.get(), pending.cancels.get()), (0, 1));
+    }
 }

@@ -71,6 +71,19 @@ pub fn discounted(rewards: &[f64], gamma: f64) -> f64 {
     total
 }
 
+/// What policy files record of a world written outside the engine: what its author gave
+/// (`given`), with its name and shape.
+pub fn describe(given: serde_json::Map<String, Value>, shape: Shape) -> Value {
+    let mut map = given;
+    map.insert("name".into(), Value::from(NAME));
+    for (key, value) in
+        [("observations", shape.observations), ("decisions", shape.decisions), ("horizon", shape.horizon)]
+    {
+        map.insert(key.into(), Value::from(value));
+    }
+    Value::Object(map)
+}
+
 /// A world that steps a batch of episodes at once, in lockstep.
 pub trait BatchWorld: Send {
     /// Observations, decisions, most steps per episode.
@@ -115,7 +128,7 @@ pub struct Lockstep<B> {
 
 impl<B: BatchWorld> Lockstep<B> {
     /// The world, its shape checked (at least one observation, decision and step; observations
-    /// and decisions fit the engine's records).
+    /// and decisions fit the engine's records), and its discount (`0..=1`).
     pub fn new(world: B) -> Result<Lockstep<B>> {
         let shape = world.shape();
         let description = world.description();
@@ -132,6 +145,10 @@ impl<B: BatchWorld> Lockstep<B> {
                 format!("{} horizon", label(&description)),
                 format!("{} (expected 1..={MAX_HORIZON} steps)", shape.horizon),
             ));
+        }
+        let discount = world.discount();
+        if !(0.0..=1.0).contains(&discount) {
+            return Err(Error::invalid("discount", format!("{discount} (expected 0 <= discount <= 1)")));
         }
         let batch = world.max_batch();
         if batch == 0 {

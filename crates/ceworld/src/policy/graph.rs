@@ -20,6 +20,14 @@ pub const PRUNE: f64 = 1e-3;
 /// The most nodes a graph may have.
 pub const MAX_NODES: usize = 100_000;
 
+/// A pruning threshold, named `name` where it is refused: a probability `0 <= p < 1`.
+pub fn check_prune(name: &str, prune: f64) -> Result<()> {
+    if !(0.0..1.0).contains(&prune) {
+        return Err(Error::invalid(name, format!("{prune} (expected a probability 0 <= p < 1)")));
+    }
+    Ok(())
+}
+
 /// One node of a [`Graph`].
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Node {
@@ -200,6 +208,24 @@ impl Graph {
             })
             .collect();
         json!({"format": "cehmm-policy-graph", "initial": self.initial, "nodes": nodes})
+    }
+
+    /// The graph in the form named `form`: `"text"` ([`Graph::describe`]), `"json"`
+    /// ([`Graph::to_json`]), `"dot"` ([`Graph::to_dot`]) or `"pg"` ([`Graph::to_pg`]); all but
+    /// `"json"` as a JSON string.
+    pub fn render(&self, form: &str, decisions: &[String], observations: &[String]) -> Result<Value> {
+        Ok(match form {
+            "text" => Value::String(self.describe(decisions, observations)),
+            "json" => self.to_json(decisions, observations),
+            "dot" => Value::String(self.to_dot(decisions, observations)),
+            "pg" => Value::String(self.to_pg()?),
+            other => {
+                return Err(Error::invalid(
+                    "form",
+                    format!("{other:?} (expected \"text\", \"json\", \"dot\" or \"pg\")"),
+                ));
+            }
+        })
     }
 
     /// The graph in Graphviz's DOT language, in the world's names (`dot -Tpng FILE.dot`): a

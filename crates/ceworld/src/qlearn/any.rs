@@ -14,6 +14,7 @@ use serde_json::Value;
 use super::{KnownState, QConfig, QLearner, Ties, WindowConfig, WindowReport, evaluate_windows, read_header};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
+use crate::world::World;
 use crate::world::registry::AnyWorld;
 
 /// A Q-learning run on any registered world with a known state.
@@ -89,6 +90,30 @@ impl AnyLearner {
     /// The run's world, as a registered world.
     pub fn world(&self) -> AnyWorld {
         crate::with_learner!(self, q => AnyWorld::from(q.world().clone()))
+    }
+
+    /// `Q(state, ·)`; a state past the table is refused, naming its size.
+    pub fn row(&self, state: usize) -> Result<Vec<f32>> {
+        crate::with_learner!(self, q => {
+            let t = q.table();
+            if state >= t.n_states() {
+                return Err(Error::invalid("state", format!("{state} (expected < {})", t.n_states())));
+            }
+            Ok(t.row(state).to_vec())
+        })
+    }
+
+    /// The known state (the table's row) of the world state `state` (as the world describes
+    /// it) seen through observation `y`.
+    pub fn state_index(&self, state: &[i64], y: usize) -> Result<usize> {
+        crate::with_learner!(self, q => {
+            let world = q.world();
+            if y >= world.n_observations() {
+                return Err(Error::invalid("y", format!("{y} (expected < {})", world.n_observations())));
+            }
+            let state = world.restore(state).map_err(|e| Error::invalid("state", e.to_string()))?;
+            Ok(world.known_state(&state, y))
+        })
     }
 
     /// The greedy policy of the table (ties broken by `ties`, or as in learning) evaluated on

@@ -195,11 +195,13 @@ impl PomdpWorld {
     }
 
     /// `policy` as a policy graph over the file's observations (its first memory drawn after
-    /// the start symbol), equivalent nodes merged when it is deterministic.
-    pub fn graph(&self, policy: &crate::policy::Hhmm, least: f64) -> Result<crate::policy::graph::Graph> {
+    /// the start symbol), laws below `prune` left out, equivalent nodes merged when it is
+    /// deterministic.
+    pub fn graph(&self, policy: &crate::policy::Hhmm, prune: f64) -> Result<crate::policy::graph::Graph> {
+        crate::policy::graph::check_prune("prune", prune)?;
         policy.check_shape(self.n_observations(), self.n_decisions())?;
         let n_o = self.tables.n_observations();
-        Ok(crate::policy::graph::Graph::of(policy, n_o, n_o, least)?.minimized())
+        Ok(crate::policy::graph::Graph::of(policy, n_o, n_o, prune)?.minimized())
     }
 }
 
