@@ -134,7 +134,7 @@ fn bench_world<W: World>(
 /// controller as an HHMM (`exact::infinite_horizon`, the general recursion) as the in-run
 /// reference: `cargo bench -p ceworld -- exact_controller_value`.
 fn exact_controller_value(c: &mut Criterion) {
-    use ceworld::ce::controller::{Controller, ControllerValue};
+    use ceworld::ce::controller::{Controller, ControllerValue, Scratch};
     use rand::RngExt;
     let path = format!("{}/../../data/pomdp/hallway.POMDP", env!("CARGO_MANIFEST_DIR"));
     let world = PomdpWorld::from_file(path, 100, None).unwrap();
@@ -149,9 +149,9 @@ fn exact_controller_value(c: &mut Criterion) {
             next: (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
         };
         let values = ControllerValue::new(&world, 1e-6);
-        let mut scratch = (Vec::new(), Vec::new());
+        let mut scratch = Scratch::default();
         group.bench_function(format!("hallway {n} nodes"), |b| {
-            b.iter(|| black_box(values.value(&controller, &mut scratch.0, &mut scratch.1)));
+            b.iter(|| black_box(values.value(&controller, &mut scratch)));
         });
         if n == 8 {
             let policy = controller.to_hhmm(y1, n_a).unwrap();

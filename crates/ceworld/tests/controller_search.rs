@@ -2,7 +2,7 @@
 //! against a hand computation and against the exact evaluation of its HHMM, the search against
 //! brute force on a tiny problem, determinism, restarts, interruption and bad settings.
 
-use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, Valued, optimize_controller};
+use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, Scratch, Valued, optimize_controller};
 use ceworld::exact::{finite_horizon, infinite_horizon};
 use ceworld::rng::{Purpose, stream};
 use ceworld::{Error, Flow, PomdpWorld, StopReason};
@@ -17,7 +17,7 @@ fn world(name: &str, horizon: usize, discount: Option<f64>) -> PomdpWorld {
 }
 
 fn value(world: &PomdpWorld, c: &Controller, tolerance: f64) -> f64 {
-    ControllerValue::new(world, tolerance).value(c, &mut Vec::new(), &mut Vec::new())
+    ControllerValue::new(world, tolerance).value(c, &mut Scratch::default())
 }
 
 /// A random deterministic controller of `n` nodes.
@@ -72,6 +72,42 @@ fn the_value_is_the_exact_value_of_the_controllers_hhmm() {
     }
 }
 
+#[test]
+fn controllers_alike_on_what_they_reach_get_the_same_value_bit_for_bit() {
+    let tiger = world("tiger.95.POMDP", 10, None);
+    // "Listen, then open the door opposite to what was heard", its nodes numbered otherwise,
+    // with a node it never reaches, and with different successors on the start symbol where
+    // it cannot be met again.
+    let once = Controller { act: vec![LISTEN, OPEN_RIGHT, OPEN_LEFT], next: vec![1, 2, 0, 0, 0, 0, 0, 0, 0] };
+    let renumbered = Controller {
+        act: vec![OPEN_LEFT, LISTEN, OPEN_RIGHT, OPEN_LEFT],
+        next: vec![1, 1, 1, 2, 0, 2, 1, 1, 0, 2, 2, 1],
+    };
+    let a = value(&tiger, &once, 1e-6);
+    let b = ControllerValue::new(&tiger, 1e-6).value(&renumbered, &mut Scratch::default());
+    assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b}");
+    // Rewards the same in every pair reached: one sweep gives the exact value, whatever the
+    // controller (a plateau of controllers that listen forever is a plateau of equal values).
+    let listen_1 = Controller { act: vec![LISTEN], next: vec![0, 0, 0] };
+    let listen_3 = Controller { act: vec![LISTEN, LISTEN, OPEN_LEFT], next: vec![1, 1, 1, 0, 1, 2, 1, 1, 1] };
+    let (one, three) = (value(&tiger, &listen_1, 1e-6), value(&tiger, &listen_3, 1e-6));
+    assert_eq!(one.to_bits(), three.to_bits());
+    assert!((one - -20.0).abs() < 1e-12, "{one}");
+}
+
+#[test]
+fn the_value_is_within_the_tolerance() {
+    let hallway = world("hallway.POMDP", 10, None);
+    for k in 0..3 {
+        let c = random_controller(&hallway, 16, k);
+        let tight = value(&hallway, &c, 1e-12);
+        for tolerance in [1e-3, 1e-6] {
+            let v = value(&hallway, &c, tolerance);
+            assert!((v - tight).abs() <= tolerance, "controller {k} at {tolerance}: {v} vs {tight}");
+        }
+    }
+}
+
 /// Every deterministic controller of `n` nodes, by counting in mixed radix.
 fn all_controllers(n_actions: usize, y1: usize, n: usize) -> impl Iterator<Item = Controller> {
     let digits = n + n * y1;
@@ -91,10 +127,9 @@ fn all_controllers(n_actions: usize, y1: usize, n: usize) -> impl Iterator<Item 
 fn the_search_finds_the_brute_force_optimum_of_a_tiny_problem() {
     // Tiger over 4 undiscounted steps, 2-node controllers: 3² · 2⁶ = 576 of them.
     let w = world("tiger.95.POMDP", 4, Some(1.0));
-    let mut scratch = (Vec::new(), Vec::new());
+    let mut scratch = Scratch::default();
     let values = ControllerValue::new(&w, 1e-9);
-    let optimum =
-        all_controllers(3, 3, 2).map(|c| values.value(&c, &mut scratch.0, &mut scratch.1)).fold(f64::MIN, f64::max);
+    let optimum = all_controllers(3, 3, 2).map(|c| values.value(&c, &mut scratch)).fold(f64::MIN, f64::max);
     let config = ControllerConfig { nodes: 2, samples: 200, patience: 10, threads: Some(2), ..Default::default() };
     let found = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
     assert!((found.value - optimum).abs() < 1e-9, "found {} optimum {optimum}", found.value);

@@ -13,7 +13,7 @@ use crate::error::Result;
 use crate::policy::{Hhmm, Layout};
 
 /// A deterministic controller: `act[q]` and `next[q·Y + y]`.
-#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct Controller {
     /// The decision of each node.
     pub act: Vec<u32>,

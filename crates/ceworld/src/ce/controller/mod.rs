@@ -34,7 +34,8 @@ use crate::settings::Settings;
 
 pub use config::{ControllerConfig, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
 use laws::Laws;
-pub use value::{ControllerValue, Valued};
+use value::Seen;
+pub use value::{ControllerValue, Scratch, Valued};
 
 use crate::ce::resume::{Checkpointing, Saver};
 use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
@@ -173,7 +174,8 @@ pub fn optimize_controller_with(
         Valued::Sampled(w) => Values::Sampled(w),
         Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
-    let search = Search { config, values, y1, n_actions, pool };
+    let seen = Seen::new(most, y1);
+    let search = Search { config, values, seen, y1, n_actions, pool };
     let (mut interrupted, mut stopped) = (None, false);
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
@@ -253,6 +255,8 @@ enum Values<'a> {
 struct Search<'a> {
     config: &'a ControllerConfig,
     values: Values<'a>,
+    /// Exact values already computed.
+    seen: Seen,
     y1: usize,
     n_actions: usize,
     pool: rayon::ThreadPool,
@@ -282,16 +286,13 @@ impl Search<'_> {
         self.pool.install(|| match &self.values {
             Values::Exact(exact) => Ok((0..samples)
                 .into_par_iter()
-                .map_init(
-                    || (Vec::new(), Vec::new()),
-                    |(v, w), k| {
-                        if k > 0 && over_time() {
-                            return None;
-                        }
-                        let c = draw(k);
-                        Some((exact.value(&c, v, w), c))
-                    },
-                )
+                .map_init(Scratch::default, |scratch, k| {
+                    if k > 0 && over_time() {
+                        return None;
+                    }
+                    let c = draw(k);
+                    Some((self.seen.value(&c, || exact.value(&c, scratch)), c))
+                })
                 .collect()),
             Values::ExactElsewhere(_, remote) => {
                 // One batch: the time limit is checked between iterations only.
