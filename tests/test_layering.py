@@ -46,6 +46,7 @@ LAYERS: dict[str, int] = {
     "policy::file": 3,
     "evaluate": 4,
     "exact": 4,
+    "pointbased": 4,
     "ce": 5,
     "qlearn": 5,
     "progress": 6,

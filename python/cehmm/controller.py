@@ -106,6 +106,7 @@ def optimize_controller(
     injection: float = CONTROLLER_DEFAULTS["injection"],
     injections: int = CONTROLLER_DEFAULTS["injections"],
     growths: int = CONTROLLER_DEFAULTS["growths"],
+    model_nodes: int = CONTROLLER_DEFAULTS["model_nodes"],
     template: str | None = None,
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     progress: bool = True,
@@ -144,7 +145,7 @@ def optimize_controller(
 
     Args:
         world: any world :func:`optimize` takes.
-        nodes: nodes of the controller.
+        nodes: nodes of the controller (where no model start is kept: see ``model_nodes``).
         value: ``"exact"`` (a :class:`PomdpWorld` only; its default) or ``"sampled"`` (the
             default of every other world).
         episodes: sampled values: episodes per controller and iteration.
@@ -177,10 +178,18 @@ def optimize_controller(
             out, start the laws again around the best controller with one node more (the new
             node a copy of the node it enters most) and go on; the policy returned may have up
             to ``nodes + growths`` nodes.
-        template: the memory the laws start from: ``"uniform"``, ``"hold"`` (a latch: every
-            node but the start node stays where it is), ``"clock"`` (node ``q`` moves on to
-            ``q + 1``), ``"mixed"`` (both) or ``"window"`` (the last observations: node ``q``
-            moves to ``(q · Y + y) mod nodes``, so ``Y^k`` nodes hold the last ``k``); the
+        model_nodes: on a discounted tabular world valued here (a ``PomdpWorld``, exact
+            values), the most nodes of the controller built from the world's model (point-based
+            values over the beliefs met on the way, made into a controller: docs/model.md §8).
+            Where it beats every blind policy it is kept: the search then has its nodes
+            (instead of ``nodes``), the laws start around it (its choices at
+            ``template_weight``) and the first iteration values it, so the result is never
+            worse. 0: no model start.
+        template: where there is no model start, the memory the laws start from:
+            ``"uniform"``, ``"hold"`` (a latch: every node but the start node stays where it
+            is), ``"clock"`` (node ``q`` moves on to ``q + 1``), ``"mixed"`` (both) or
+            ``"window"`` (the last observations: node ``q`` moves to ``(q · Y + y) mod nodes``,
+            so ``Y^k`` nodes hold the last ``k``); the
             search keeps of it what pays (default ``"uniform"`` on exact values, ``"mixed"`` on
             sampled: measured in docs/memory-benchmark.md).
         template_weight: the template's weight in the first successor laws, ``0 <= w < 1``.
@@ -239,6 +248,7 @@ def optimize_controller(
                 injection=injection,
                 injections=injections,
                 growths=growths,
+                model_nodes=model_nodes,
                 template_weight=template_weight,
                 target=target,
                 # None: the default of the kind of value used (the engine's to resolve).

@@ -25,7 +25,7 @@ use serde_json::{Value, json};
 use ceworld::episodes::{Batch, Episodes, Pending, Shape, Streams, wait_for};
 use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
-use ceworld::{Error, Hhmm, Interrupt, PolicyFile};
+use ceworld::{Error, Hhmm, Interrupt, PolicyFile, PomdpWorld};
 
 /// What the engine asks of a backend, by name: rewards, counts, controller values, exact values.
 pub const METHODS: [&str; 4] = [REWARDS, COUNTS, CONTROLLER_VALUES, EXACT_VALUES];
@@ -45,8 +45,9 @@ pub struct PyRemoteWorld {
     backend: Py<PyAny>,
     shape: Shape,
     description: Value,
-    /// Whether the world is tabular (a `.pomdp` file): its controllers have exact values.
-    pub tabular: bool,
+    /// The world, where it is tabular (a `.pomdp` file): its controllers have exact values and a
+    /// model start.
+    model: Option<PomdpWorld>,
 }
 
 #[pymethods]
@@ -54,19 +55,19 @@ impl PyRemoteWorld {
     /// `world` (an engine world or a world written in Python) sampled by `backend`.
     #[new]
     fn new(backend: Py<PyAny>, world: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let (shape, description, tabular) = if let Ok(w) = world.extract::<PyRef<'_, crate::world::PyWorld>>() {
+        let (shape, description, model) = if let Ok(w) = world.extract::<PyRef<'_, crate::world::PyWorld>>() {
             let (shape, description) = ceworld::with_world!(&w.world, x => (x.shape(), x.description()));
-            (shape, description, w.world.tabular().is_some())
+            (shape, description, w.world.tabular().cloned())
         } else if let Ok(w) = world.extract::<PyRef<'_, crate::outside::PyOutsideWorld>>() {
             let (shape, description) = w.described();
-            (shape, description, false)
+            (shape, description, None)
         } else {
             return Err(pyo3::exceptions::PyTypeError::new_err(format!(
                 "invalid world: {} (expected a cehmm world or a world written in Python)",
                 crate::convert::shown(world)
             )));
         };
-        Ok(PyRemoteWorld { backend, shape, description, tabular })
+        Ok(PyRemoteWorld { backend, shape, description, model })
     }
 
     /// The backend that samples the episodes.
@@ -89,7 +90,7 @@ impl PyRemoteWorld {
             backend: self.backend.clone_ref(py),
             shape: self.shape,
             description: self.description.clone(),
-            tabular: self.tabular,
+            model: self.model.clone(),
             interrupt,
             raised: Mutex::new(None),
         }
@@ -101,7 +102,7 @@ pub struct Remote {
     backend: Py<PyAny>,
     shape: Shape,
     description: Value,
-    tabular: bool,
+    model: Option<PomdpWorld>,
     interrupt: Interrupt,
     raised: Mutex<Option<PyErr>>,
 }
@@ -232,8 +233,8 @@ impl Episodes for Remote {
 }
 
 impl ceworld::episodes::Remote for Remote {
-    fn tabular(&self) -> bool {
-        self.tabular
+    fn model(&self) -> Option<&PomdpWorld> {
+        self.model.as_ref()
     }
 
     fn counts(&self, policy: &Hhmm, streams: Streams, episodes: &[usize]) -> ceworld::Result<Vec<u32>> {

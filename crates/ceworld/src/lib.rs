@@ -24,6 +24,7 @@ pub mod evaluate;
 pub mod exact;
 pub mod files;
 pub mod memory;
+pub mod pointbased;
 pub mod policy;
 pub mod progress;
 pub mod qlearn;

@@ -63,7 +63,19 @@ fn a_controller_search_saves_a_policy_whose_value_it_reports() {
     let path = temp("controller.json");
     let p = path.to_str().unwrap();
     let tiger = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
-    let args = ["controller", "--pomdp", &tiger, "--nodes", "3", "--samples", "200", "--max-iterations", "4"];
+    let args = [
+        "controller",
+        "--pomdp",
+        &tiger,
+        "--nodes",
+        "3",
+        "--model-nodes",
+        "0",
+        "--samples",
+        "200",
+        "--max-iterations",
+        "4",
+    ];
     let out = ceworld(&[&args[..], &["--restarts", "2", "--out", p, "--quiet"]].concat());
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);

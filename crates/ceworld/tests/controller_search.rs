@@ -317,3 +317,22 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
     assert!(e.to_string().contains("value exact, not sampled"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_model_start_is_never_lost_and_sets_the_nodes() {
+    use ceworld::pointbased::{Budget, PointBased};
+    let w = world("4x3.95.POMDP", 10, None);
+    let config = ControllerConfig { nodes: 3, samples: 50, max_iterations: Some(1), ..Default::default() };
+    let built = PointBased::solve(&w, Budget::within(config.time_limit), config.seed).controller(&w, 64, config.seed);
+    let start = value(&w, &built, 1e-6);
+    let found = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
+    // One iteration: the controller built from the model is among its draws.
+    assert!(found.value >= start, "{} < {start}", found.value);
+    assert_eq!(found.policy.levels(), [built.nodes(), built.nodes()]);
+    assert!(start > 1.8, "{start} (SARSOP's lower bound: 1.8899)");
+    // Without it, the nodes asked and uniform laws.
+    let without = ControllerConfig { model_nodes: 0, ..config };
+    let found = optimize_controller(Valued::Exact(&w), &without, |_| Flow::Continue).unwrap();
+    assert_eq!(found.policy.levels(), [3, 3]);
+    assert!(found.value < start);
+}

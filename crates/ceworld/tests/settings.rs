@@ -73,6 +73,7 @@ fn every_controller_setting_is_set_by_its_name() {
         injection: 0.5,
         injections: 3,
         growths: 2,
+        model_nodes: 9,
         template: ceworld::ce::controller::Template::Window,
         template_weight: 0.75,
     });

@@ -111,10 +111,11 @@ pub trait Episodes: Sync {
 /// Episodes sampled elsewhere: what stays there (the episodes, their records) is asked for by
 /// the episodes' numbers alone (model §3, the elite's counts).
 pub trait Remote: Sync {
-    /// Whether the world sampled there is tabular, so that [`Remote::exact_values`] can value
-    /// controllers exactly. By default not.
-    fn tabular(&self) -> bool {
-        false
+    /// The tabular world sampled there, as the driver holds it, if it is one: its controllers
+    /// then have exact values ([`Remote::exact_values`], computed there) and a model start
+    /// (built here, model §8). By default none.
+    fn model(&self) -> Option<&PomdpWorld> {
+        None
     }
 
     /// The sampled counts (laid out as `policy`'s flat tables) of episodes `episodes` of

@@ -117,11 +117,11 @@ impl Resumable for ControllerSearch {
                     || run.history.last().is_some_and(|r| r.best_so_far != *value)
                 {
                     Some(format!("best controller of iteration {i} with value {value} (not its history's best so far)"))
-                } else if controller.nodes() > c.nodes + run.growths {
+                } else if controller.nodes() > c.nodes.max(c.model_nodes) + run.growths {
                     Some(format!(
                         "a best controller of {} nodes (at most {})",
                         controller.nodes(),
-                        c.nodes + run.growths
+                        c.nodes.max(c.model_nodes) + run.growths
                     ))
                 } else {
                     None

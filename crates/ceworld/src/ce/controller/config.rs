@@ -108,7 +108,7 @@ impl Template {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ControllerConfig {
-    /// Nodes of the controller, n.
+    /// Nodes of the controller, n (where no model start is kept: see `model_nodes`).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().nodes))]
     pub nodes: usize,
     /// Controllers drawn per iteration, N.
@@ -179,7 +179,16 @@ pub struct ControllerConfig {
     /// in), and the run goes on; the controller returned may have up to `nodes + growths` nodes.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().growths))]
     pub growths: usize,
-    /// The memory the laws start from.
+    /// Discounted tabular worlds valued here: the most nodes of the controller built from the
+    /// world's model (point-based values over beliefs met on the way, made into a controller:
+    /// model §8). Where it beats every blind policy it is kept: the search then has its nodes
+    /// (instead of `nodes`), the laws start around it (its choices at `template_weight`) and
+    /// the first iteration values it, so that the search returns nothing worse. 0: no model
+    /// start.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().model_nodes))]
+    #[serde(default)]
+    pub model_nodes: usize,
+    /// The memory the laws start from (where there is no model start).
     #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().template))]
     pub template: Template,
     /// The weight of the template in the first successor laws, in [0, 1).
@@ -213,6 +222,7 @@ impl Settings for ControllerConfig {
             "injection" => self.injection = s.real()?,
             "injections" => self.injections = s.count()?,
             "growths" => self.growths = s.count()?,
+            "model_nodes" => self.model_nodes = s.count()?,
             "template" => self.template = s.choice(Template::parse)?,
             "template_weight" => self.template_weight = s.real()?,
             other => return Err(self.unknown(other)),
@@ -243,6 +253,7 @@ impl Default for ControllerConfig {
             injection: 0.2,
             injections: 0,
             growths: 0,
+            model_nodes: 64,
             template: Template::Uniform,
             template_weight: 0.5,
         }
@@ -289,6 +300,12 @@ impl ControllerConfig {
             return Err(Error::invalid(
                 "growths",
                 format!("{} (expected nodes + growths <= {})", self.growths, crate::policy::MAX_LEVEL_SIZE),
+            ));
+        }
+        if self.model_nodes > crate::policy::MAX_LEVEL_SIZE - self.growths {
+            return Err(Error::invalid(
+                "model_nodes",
+                format!("{} (expected model_nodes + growths <= {})", self.model_nodes, crate::policy::MAX_LEVEL_SIZE),
             ));
         }
         if self.samples == 0 || self.samples > MAX_SAMPLES {

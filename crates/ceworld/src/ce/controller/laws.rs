@@ -141,6 +141,21 @@ impl Laws {
         laws
     }
 
+    /// The laws around `c` (a model start): each law is `c`'s choice with `weight`, the
+    /// uniform law with the rest.
+    pub(super) fn around(c: &Controller, n_actions: usize, y1: usize, weight: f64) -> Laws {
+        let n = c.nodes();
+        let mut laws = Laws { n, n_actions, y1, act: vec![0.0; n * n_actions], next: vec![0.0; n * y1 * n] };
+        for (q, &a) in c.act.iter().enumerate() {
+            laws.act[q * n_actions + a as usize] = 1.0;
+        }
+        for (row, &to) in c.next.iter().enumerate() {
+            laws.next[row * n + to as usize] = 1.0;
+        }
+        laws.inject(1.0 - weight);
+        laws
+    }
+
     /// Mixes `weight` (`ε`) of the uniform law into every law: `p := (1 − ε)·p + ε/|row|`.
     pub(super) fn inject(&mut self, weight: f64) {
         let (a, n) = (1.0 / self.n_actions as f64, 1.0 / self.n as f64);

@@ -26,11 +26,13 @@ use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::evaluate::{Evaluation, closing_rewards};
+use crate::pointbased::{Budget, PointBased};
 pub use crate::policy::controller::Controller;
 use crate::policy::file::PolicyFile;
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream};
 use crate::settings::Settings;
+use crate::world::pomdp::PomdpWorld;
 
 pub use config::{ControllerConfig, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
 use laws::Laws;
@@ -155,8 +157,14 @@ pub fn optimize_controller_with(
     let shape = world.episodes().shape();
     let (n_actions, y1) = (shape.decisions, shape.observations);
     // The policy must fit before any work.
-    let most = config.nodes + config.growths;
+    let most = config.nodes.max(config.model_nodes) + config.growths;
     Layout::new(y1, n_actions, &[most, most])?.fits_in_memory()?;
+    let start = match world {
+        Valued::Exact(w) => model_start(w, config),
+        Valued::ExactElsewhere(_, remote) => remote.model().and_then(|w| model_start(w, config)),
+        Valued::Sampled(_) => None,
+    };
+    let nodes = start.as_ref().map_or(config.nodes, Controller::nodes);
     if let Valued::Sampled(_) = world {
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
@@ -164,7 +172,7 @@ pub fn optimize_controller_with(
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
     let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing, None)?;
     if let Some(run) = &saver.state.run
-        && (run.laws.nodes() != config.nodes + run.growths || run.laws.shape() != (n_actions, y1))
+        && (run.laws.nodes() != nodes + run.growths || run.laws.shape() != (n_actions, y1))
     {
         return Err(crate::error::Error::CheckpointMismatch("the checkpoint's laws do not fit this search".into()));
     }
@@ -175,7 +183,7 @@ pub fn optimize_controller_with(
         Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
     let seen = Seen::new(most, y1);
-    let search = Search { config, values, seen, y1, n_actions, pool };
+    let search = Search { config, values, seen, start, y1, n_actions, pool };
     let (mut interrupted, mut stopped) = (None, false);
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
@@ -244,6 +252,23 @@ pub fn optimize_controller_with(
     Ok(outcome)
 }
 
+/// The model start (`model_nodes`, discounted worlds): the controller built from `world`'s
+/// model, where its exact value beats every blind policy's ("always `a`").
+fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<Controller> {
+    if config.model_nodes == 0 || world.tables().gamma >= 1.0 {
+        return None;
+    }
+    let solved = PointBased::solve(world, Budget::within(config.time_limit), config.seed);
+    let built = solved.controller(world, config.model_nodes, config.seed);
+    let values = ControllerValue::new(world, config.tolerance);
+    let mut scratch = Scratch::default();
+    let y1 = world.tables().n_observations() + 1;
+    let blind = (0..world.tables().n_actions() as u32)
+        .map(|a| values.value(&Controller { act: vec![a], next: vec![0; y1] }, &mut scratch))
+        .fold(f64::NEG_INFINITY, f64::max);
+    (values.value(&built, &mut scratch) > blind + config.tolerance).then_some(built)
+}
+
 /// How a search values its controllers.
 enum Values<'a> {
     Exact(ControllerValue<'a>),
@@ -257,6 +282,9 @@ struct Search<'a> {
     values: Values<'a>,
     /// Exact values already computed.
     seen: Seen,
+    /// The controller built from the model, of `nodes` nodes, if any: the laws start around
+    /// it, and it is the first controller of the first iteration.
+    start: Option<Controller>,
     y1: usize,
     n_actions: usize,
     pool: rayon::ThreadPool,
@@ -282,7 +310,10 @@ impl Search<'_> {
         over_time: &(dyn Fn() -> bool + Sync),
     ) -> Result<Vec<Option<(f64, Controller)>>> {
         let samples = self.config.samples;
-        let draw = |k: usize| laws.draw(&mut stream(seed, Purpose::Optimise, iteration as u64, k as u64));
+        let draw = |k: usize| match &self.start {
+            Some(start) if iteration == 0 && k == 0 => start.clone(),
+            _ => laws.draw(&mut stream(seed, Purpose::Optimise, iteration as u64, k as u64)),
+        };
         self.pool.install(|| match &self.values {
             Values::Exact(exact) => Ok((0..samples)
                 .into_par_iter()
@@ -366,7 +397,10 @@ impl Search<'_> {
     fn fresh(&self) -> SearchState {
         let c = self.config;
         SearchState {
-            laws: Laws::start(c.nodes, self.n_actions, self.y1, c.template, c.template_weight),
+            laws: match &self.start {
+                Some(start) => Laws::around(start, self.n_actions, self.y1, c.template_weight),
+                None => Laws::start(c.nodes, self.n_actions, self.y1, c.template, c.template_weight),
+            },
             best: None,
             history: Vec::new(),
             since_progress: 0,

@@ -28,7 +28,7 @@ impl Valued<'_> {
     /// The one place that decides the kind of value, and so the defaults that depend on it
     /// ([`super::ControllerConfig::defaults_for`]).
     pub fn of(world: &dyn Episodes, kind: Option<ValueKind>) -> Result<Valued<'_>> {
-        let elsewhere = world.remote().filter(|r| r.tabular());
+        let elsewhere = world.remote().filter(|r| r.model().is_some());
         match (world.tabular(), elsewhere, kind) {
             (_, _, Some(ValueKind::Sampled)) | (None, None, None) => Ok(Valued::Sampled(world)),
             (Some(tabular), _, None | Some(ValueKind::Exact)) => Ok(Valued::Exact(tabular)),
