@@ -2,13 +2,17 @@
 //! value iteration over beliefs met on the way (Perseus: Spaan & Vlassis, JAIR 2005), its
 //! α-vectors made into a finite-state controller.
 //!
-//! Beliefs are collected by random walks from the start belief (Bayes filter, model §7). Each
-//! stage backs up the value at beliefs drawn in turn until every belief's value has improved or
-//! stayed; an α-vector is the value of "take its decision, then continue as the vector chosen
-//! for each observation". The controller keeps the `n` vectors that are best at the most
-//! beliefs: a node per vector, its decision the vector's, and after observation `y` the node of
-//! the kept vector best at the belief that follows from the vector's own belief (its witness).
-//! Its first node is the kept vector best at the start belief.
+//! Beliefs are collected on walks from the start belief (Bayes filter, model §7), each step the
+//! QMDP decision or, as often, a random one. The first vectors are the blind policies' values.
+//! Each stage backs up the value at beliefs drawn in turn, keeping a backup only where it raises
+//! its own belief's value, until every belief's value has improved or stayed; an α-vector is the
+//! value of "take its decision, then continue as the vector chosen for each observation". The
+//! work is counted, not timed ([`Budget`]), so the result is the same on every machine.
+//!
+//! The controller keeps the (at most `most`) vectors best at the most beliefs met on walks of
+//! their greedy policy: a node per vector, its decision the vector's, and after observation `y`
+//! the node of the kept vector best at the belief that follows the mean of the beliefs the node
+//! stands for. Its first node is the kept vector best at the start belief.
 
 use rand::RngExt;
 
@@ -62,7 +66,9 @@ pub struct PointBased {
 /// One α-vector: its values per state, its decision, and the belief it was backed up at.
 #[derive(Clone, Debug)]
 pub struct Alpha {
+    /// The value of each state.
     pub values: Vec<f64>,
+    /// The decision taken first.
     pub action: usize,
     /// Index into [`PointBased::beliefs`] (the start belief is index 0).
     pub witness: usize,
