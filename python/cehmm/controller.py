@@ -178,8 +178,8 @@ def optimize_controller(
             out, start the laws again around the best controller with one node more (the new
             node a copy of the node it enters most) and go on; the policy returned may have up
             to ``nodes + growths`` nodes.
-        model_nodes: on a discounted tabular world valued here (a ``PomdpWorld``, exact
-            values), the most nodes of the controller built from the world's model (point-based
+        model_nodes: on a discounted tabular world (a ``PomdpWorld``, valued here or on a
+            backend), the most nodes of the controller built from the world's model (point-based
             values over the beliefs met on the way, made into a controller: docs/model.md §8).
             Where it beats every blind policy it is kept: the search then has its nodes
             (instead of ``nodes``), the laws start around it (its choices at
@@ -192,7 +192,8 @@ def optimize_controller(
             so ``Y^k`` nodes hold the last ``k``); the
             search keeps of it what pays (default ``"uniform"`` on exact values, ``"mixed"`` on
             sampled: measured in docs/memory-benchmark.md).
-        template_weight: the template's weight in the first successor laws, ``0 <= w < 1``.
+        template_weight: the template's weight in the first successor laws (the model start's
+            in every first law), ``0 <= w < 1``.
         progress: print a live progress line on stderr.
         checkpoint: a file where the whole state of the search (laws, best controller so far,
             history, finished restarts) is saved every ``checkpoint_every`` seconds and whenever

@@ -179,8 +179,8 @@ pub struct ControllerConfig {
     /// in), and the run goes on; the controller returned may have up to `nodes + growths` nodes.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().growths))]
     pub growths: usize,
-    /// Discounted tabular worlds valued here: the most nodes of the controller built from the
-    /// world's model (point-based values over beliefs met on the way, made into a controller:
+    /// Discounted tabular worlds (a `.pomdp` file, valued here or on a backend): the most nodes
+    /// of the controller built from the world's model (point-based values over beliefs met on the way, made into a controller:
     /// model §8). Where it beats every blind policy it is kept: the search then has its nodes
     /// (instead of `nodes`), the laws start around it (its choices at `template_weight`) and
     /// the first iteration values it, so that the search returns nothing worse. 0: no model
@@ -191,7 +191,8 @@ pub struct ControllerConfig {
     /// The memory the laws start from (where there is no model start).
     #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().template))]
     pub template: Template,
-    /// The weight of the template in the first successor laws, in [0, 1).
+    /// The weight of the template in the first successor laws (of the model start's choices in
+    /// every first law), in [0, 1).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().template_weight))]
     pub template_weight: f64,
 }
