@@ -156,15 +156,15 @@ pub fn optimize_controller_with(
     config.validate()?;
     let shape = world.episodes().shape();
     let (n_actions, y1) = (shape.decisions, shape.observations);
-    // The policy must fit before any work.
-    let most = config.nodes.max(config.model_nodes) + config.growths;
-    Layout::new(y1, n_actions, &[most, most])?.fits_in_memory()?;
     let start = match world {
         Valued::Exact(w) => model_start(w, config),
         Valued::ExactElsewhere(_, remote) => remote.model().and_then(|w| model_start(w, config)),
         Valued::Sampled(_) => None,
     };
     let nodes = start.as_ref().map_or(config.nodes, Controller::nodes);
+    // The policy must fit before the search (its size known once the model start is).
+    let most = nodes + config.growths;
+    Layout::new(y1, n_actions, &[most, most])?.fits_in_memory()?;
     if let Valued::Sampled(_) = world {
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
@@ -282,8 +282,8 @@ struct Search<'a> {
     values: Values<'a>,
     /// Exact values already computed.
     seen: Seen,
-    /// The controller built from the model, of `nodes` nodes, if any: the laws start around
-    /// it, and it is the first controller of the first iteration.
+    /// The controller built from the model, if any: the runs have its nodes, their laws start
+    /// around it, and it is the first controller of the first iteration.
     start: Option<Controller>,
     y1: usize,
     n_actions: usize,
