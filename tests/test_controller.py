@@ -44,6 +44,7 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
         "evaluated",
         "injected",
         "grown",
+        "widened",
         "seconds",
     }
     assert result.kind == "exact" and result.evaluation is None
@@ -119,6 +120,32 @@ def test_repeat_first_is_held_from_a_hold_template() -> None:
     # Naming the current card: right at the first step, then when a card has the first's suit
     # (12 of the other 51).
     assert RepeatFirst().memoryless == pytest.approx(2 * (1 + 50 * 12 / 51) / 51 - 1)
+    # The stage before the memory: the best memoryless policy, kept through the widening.
+    history = result.history
+    widened = int(np.flatnonzero(history["widened"])[0])
+    assert widened >= 10 and int(history["widened"].sum()) == 1
+    assert history["best_so_far"][widened] >= RepeatFirst().memoryless - 0.05
+    assert result.policy.provenance["decisions"] == "mealy"
+    assert result.policy.provenance["memoryless_patience"] == 10
+
+
+def test_the_memoryless_stage_needs_mealy_decisions() -> None:
+    assert cehmm.controller.CONTROLLER_DEFAULTS["sampled"]["decisions"] == "mealy"
+    with pytest.raises(cehmm.InvalidArgumentError, match="memoryless_patience.*mealy"):
+        cehmm.optimize_controller(RepeatFirst(), decisions="moore", max_iterations=1, progress=False)
+    # Moore machines without the stage, as on exact values.
+    result = cehmm.optimize_controller(
+        RepeatFirst(),
+        decisions="moore",
+        memoryless_patience=0,
+        samples=20,
+        episodes=4,
+        max_iterations=2,
+        select_episodes=10,
+        eval_episodes=10,
+        progress=False,
+    )
+    assert result.policy.levels == [8, 8] and not result.history["widened"].any()
 
 
 class _Coin:

@@ -48,7 +48,8 @@ class ControllerResult:
             the same controller), ``evaluated`` (controllers evaluated: fewer than ``samples``
             when the time limit cut the iteration), ``injected`` (bool: the laws were mixed
             with the uniform law after this iteration), ``grown`` (bool: the laws grew a node
-            after this iteration) and ``seconds``.
+            after this iteration), ``widened`` (bool: the memoryless stage ended after this
+            iteration) and ``seconds``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
             ``"time_limit"`` or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
@@ -109,6 +110,8 @@ def optimize_controller(
     model_nodes: int = CONTROLLER_DEFAULTS["model_nodes"],
     template: str | None = None,
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
+    decisions: str | None = None,
+    memoryless_patience: int | None = None,
     progress: bool = True,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
@@ -194,6 +197,13 @@ def optimize_controller(
             sampled: measured in docs/memory-benchmark.md).
         template_weight: the template's weight in the first successor laws (the model start's
             in every first law), ``0 <= w < 1``.
+        decisions: what a decision reads: ``"moore"`` (the node) or ``"mealy"`` (the node and
+            the observation: one node is a memoryless policy); default ``"moore"`` on exact
+            values, ``"mealy"`` on sampled.
+        memoryless_patience: with Mealy decisions and no model start, a memoryless stage first:
+            the laws start with one node and widen to ``nodes`` around the best memoryless
+            policy after this many iterations without a better controller, so that memory only
+            adds to it; 0: none (default 0 on exact values, 10 on sampled).
         progress: print a live progress line on stderr.
         checkpoint: a file where the whole state of the search (laws, best controller so far,
             history, finished restarts) is saved every ``checkpoint_every`` seconds and whenever
@@ -256,6 +266,8 @@ def optimize_controller(
                 samples=samples,
                 rho=rho,
                 template=template,
+                decisions=decisions,
+                memoryless_patience=memoryless_patience,
             ),
             value=value,
             progress=progress,

@@ -144,10 +144,10 @@ fn exact_controller_value(c: &mut Criterion) {
     group.sample_size(10);
     for n in [8usize, 32, 64] {
         let mut rng = stream(7, Purpose::Evaluate, 0, n as u64);
-        let controller = Controller {
-            act: (0..n).map(|_| rng.random_range(0..n_a as u32)).collect(),
-            next: (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
-        };
+        let controller = Controller::moore(
+            (0..n).map(|_| rng.random_range(0..n_a as u32)).collect(),
+            (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
+        );
         let values = ControllerValue::new(&world, 1e-6);
         let mut scratch = Scratch::default();
         group.bench_function(format!("hallway {n} nodes"), |b| {

@@ -210,7 +210,7 @@ impl PointBased {
             }
             next.push(0);
         }
-        Controller { act, next }
+        Controller::moore(act, next)
     }
 }
 

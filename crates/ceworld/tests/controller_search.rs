@@ -25,10 +25,22 @@ fn random_controller(world: &PomdpWorld, n: usize, k: u64) -> Controller {
     let t = world.tables();
     let y1 = t.n_observations() + 1;
     let mut rng = stream(7, Purpose::Evaluate, 0, k);
-    Controller {
-        act: (0..n).map(|_| rng.random_range(0..t.n_actions() as u32)).collect(),
-        next: (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
-    }
+    Controller::moore(
+        (0..n).map(|_| rng.random_range(0..t.n_actions() as u32)).collect(),
+        (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
+    )
+}
+
+/// A random Mealy machine of `n` nodes.
+fn random_mealy(world: &PomdpWorld, n: usize, k: u64) -> Controller {
+    let t = world.tables();
+    let y1 = t.n_observations() + 1;
+    let mut rng = stream(8, Purpose::Evaluate, 0, k);
+    Controller::mealy(
+        (0..n * y1).map(|_| rng.random_range(0..t.n_actions() as u32)).collect(),
+        (0..n * y1).map(|_| rng.random_range(0..n as u32)).collect(),
+        y1,
+    )
 }
 
 const LISTEN: u32 = 0;
@@ -39,11 +51,11 @@ const OPEN_RIGHT: u32 = 2;
 fn values_by_hand_on_tiger() {
     let tiger = world("tiger.95.POMDP", 10, None);
     // One node that always listens: −1 a step, −1/(1 − 0.95) = −20.
-    let listen = Controller { act: vec![LISTEN], next: vec![0, 0, 0] };
+    let listen = Controller::moore(vec![LISTEN], vec![0, 0, 0]);
     assert!((value(&tiger, &listen, 1e-10) - -20.0).abs() < 1e-9);
     // Listen, then open the door opposite to what was heard, then start again: from either
     // state, v = −1 + 0.95·(0.85·10 + 0.15·(−100)) + 0.95²·v, so v = −7.175 / (1 − 0.9025).
-    let once = Controller { act: vec![LISTEN, OPEN_RIGHT, OPEN_LEFT], next: vec![1, 2, 0, 0, 0, 0, 0, 0, 0] };
+    let once = Controller::moore(vec![LISTEN, OPEN_RIGHT, OPEN_LEFT], vec![1, 2, 0, 0, 0, 0, 0, 0, 0]);
     let expected = (-1.0 + 0.95 * (0.85 * 10.0 + 0.15 * -100.0)) / (1.0 - 0.95 * 0.95);
     assert!((value(&tiger, &once, 1e-10) - expected).abs() < 1e-8, "{}", value(&tiger, &once, 1e-10));
     // At a horizon with γ = 1: two steps of "listen, open" give −1 − 6.5.
@@ -78,18 +90,16 @@ fn controllers_alike_on_what_they_reach_get_the_same_value_bit_for_bit() {
     // "Listen, then open the door opposite to what was heard", its nodes numbered otherwise,
     // with a node it never reaches, and with different successors on the start symbol where
     // it cannot be met again.
-    let once = Controller { act: vec![LISTEN, OPEN_RIGHT, OPEN_LEFT], next: vec![1, 2, 0, 0, 0, 0, 0, 0, 0] };
-    let renumbered = Controller {
-        act: vec![OPEN_LEFT, LISTEN, OPEN_RIGHT, OPEN_LEFT],
-        next: vec![1, 1, 1, 2, 0, 2, 1, 1, 0, 2, 2, 1],
-    };
+    let once = Controller::moore(vec![LISTEN, OPEN_RIGHT, OPEN_LEFT], vec![1, 2, 0, 0, 0, 0, 0, 0, 0]);
+    let renumbered =
+        Controller::moore(vec![OPEN_LEFT, LISTEN, OPEN_RIGHT, OPEN_LEFT], vec![1, 1, 1, 2, 0, 2, 1, 1, 0, 2, 2, 1]);
     let a = value(&tiger, &once, 1e-6);
     let b = ControllerValue::new(&tiger, 1e-6).value(&renumbered, &mut Scratch::default());
     assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b}");
     // Rewards the same in every pair reached: one sweep gives the exact value, whatever the
     // controller (a plateau of controllers that listen forever is a plateau of equal values).
-    let listen_1 = Controller { act: vec![LISTEN], next: vec![0, 0, 0] };
-    let listen_3 = Controller { act: vec![LISTEN, LISTEN, OPEN_LEFT], next: vec![1, 1, 1, 0, 1, 2, 1, 1, 1] };
+    let listen_1 = Controller::moore(vec![LISTEN], vec![0, 0, 0]);
+    let listen_3 = Controller::moore(vec![LISTEN, LISTEN, OPEN_LEFT], vec![1, 1, 1, 0, 1, 2, 1, 1, 1]);
     let (one, three) = (value(&tiger, &listen_1, 1e-6), value(&tiger, &listen_3, 1e-6));
     assert_eq!(one.to_bits(), three.to_bits());
     assert!((one - -20.0).abs() < 1e-12, "{one}");
@@ -119,7 +129,7 @@ fn all_controllers(n_actions: usize, y1: usize, n: usize) -> impl Iterator<Item 
             d.push((code % radix(i)) as u32);
             code /= radix(i);
         }
-        Controller { act: d[..n].to_vec(), next: d[n..].to_vec() }
+        Controller::moore(d[..n].to_vec(), d[n..].to_vec())
     })
 }
 
@@ -191,7 +201,7 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
 #[test]
 fn bad_settings_are_named() {
     let w = world("tiger.95.POMDP", 10, None);
-    let cases: [(&str, ControllerConfig); 7] = [
+    let cases: [(&str, ControllerConfig); 8] = [
         ("nodes", ControllerConfig { nodes: 0, ..Default::default() }),
         ("samples", ControllerConfig { samples: 0, ..Default::default() }),
         ("rho", ControllerConfig { rho: 1.0, ..Default::default() }),
@@ -199,6 +209,8 @@ fn bad_settings_are_named() {
         ("tolerance", ControllerConfig { tolerance: f64::NAN, ..Default::default() }),
         ("restarts", ControllerConfig { restarts: 0, ..Default::default() }),
         ("time_limit", ControllerConfig { time_limit: Some(-1.0), ..Default::default() }),
+        // A memoryless stage of Moore machines would be a blind policy's.
+        ("memoryless_patience", ControllerConfig { memoryless_patience: 3, ..Default::default() }),
     ];
     for (name, config) in cases {
         match optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue) {
@@ -223,26 +235,32 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
 
 #[test]
 fn sampled_values_agree_with_exact_values() {
-    use ceworld::Episodes;
-    use ceworld::episodes::Streams;
     for (name, n) in [("tiger.95.POMDP", 3), ("4x3.95.POMDP", 4), ("cheese.95.POMDP", 5), ("shuttle.95.POMDP", 3)] {
         // γ^400 leaves less than 1e-6 of the infinite-horizon value out.
         let w = world(name, 400, None);
         let controllers: Vec<Controller> = (0..4).map(|k| random_controller(&w, n, k)).collect();
-        let k = 20_000;
-        let mut values = vec![0.0; controllers.len() * k];
-        let streams = Streams { seed: 3, purpose: Purpose::Controllers, iteration: 0 };
-        w.run_controllers(&controllers, streams, k, &mut values).unwrap();
-        for (c, v) in controllers.iter().zip(values.chunks(k)) {
-            let mean = v.iter().sum::<f64>() / k as f64;
-            let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1) as f64).sqrt();
-            let exact = value(&w, c, 1e-9);
-            assert!(
-                (mean - exact).abs() < 4.0 * sd / (k as f64).sqrt() + 1e-3,
-                "{name}: {mean} ± {} vs {exact}",
-                sd / (k as f64).sqrt()
-            );
-        }
+        episode_means_agree_with_exact_values(&w, &controllers, 3, name);
+    }
+}
+
+/// The mean of 20 000 episodes of each of `controllers` (streams of `seed`) is its exact value,
+/// within four standard errors (and the 1e-3 of a finite horizon).
+fn episode_means_agree_with_exact_values(w: &PomdpWorld, controllers: &[Controller], seed: u64, name: &str) {
+    use ceworld::Episodes;
+    use ceworld::episodes::Streams;
+    let k = 20_000;
+    let mut values = vec![0.0; controllers.len() * k];
+    let streams = Streams { seed, purpose: Purpose::Controllers, iteration: 0 };
+    w.run_controllers(controllers, streams, k, &mut values).unwrap();
+    for (c, v) in controllers.iter().zip(values.chunks(k)) {
+        let mean = v.iter().sum::<f64>() / k as f64;
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1) as f64).sqrt();
+        let exact = value(w, c, 1e-9);
+        assert!(
+            (mean - exact).abs() < 4.0 * sd / (k as f64).sqrt() + 1e-3,
+            "{name}: {mean} ± {} vs {exact}",
+            sd / (k as f64).sqrt()
+        );
     }
 }
 
@@ -267,11 +285,24 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         growths: 1,
         ..ControllerConfig::default()
     };
-    for (name, valued) in [("exact", Valued::Exact(&tiger)), ("sampled", Valued::Sampled(&tiger))] {
-        let whole = optimize_controller(valued, &config, |_| Flow::Continue).unwrap();
+    // Mealy machines after a memoryless stage, the sampled defaults.
+    let staged = ControllerConfig {
+        decisions: ceworld::ce::controller::Decisions::Mealy,
+        memoryless_patience: 2,
+        max_iterations: Some(16),
+        ..config.clone()
+    };
+    let cases = [
+        ("exact", Valued::Exact(&tiger), &config),
+        ("sampled", Valued::Sampled(&tiger), &config),
+        ("staged", Valued::Sampled(&tiger), &staged),
+    ];
+    for (name, valued, config) in cases {
+        let whole = optimize_controller(valued, config, |_| Flow::Continue).unwrap();
         // Both escapes are taken, so that the state they change is resumed too.
         let (injected, grown) = (whole.history.iter().any(|r| r.injected), whole.history.iter().any(|r| r.grown));
         assert!(injected && grown, "{name}: injected {injected}, grown {grown}");
+        assert_eq!(whole.history.iter().any(|r| r.widened), name == "staged", "{name}");
         let path = dir.join(format!("{name}.ckpt"));
         let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: true, outputs: Vec::new() };
         // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.
@@ -279,7 +310,7 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         let resumed = loop {
             sessions += 1;
             let mut seen = 0;
-            let out = optimize_controller_with(valued, &config, Some(&checkpointing), |_| {
+            let out = optimize_controller_with(valued, config, Some(&checkpointing), |_| {
                 seen += 1;
                 if seen == 3 { Flow::Stop } else { Flow::Continue }
             })
@@ -335,4 +366,75 @@ fn the_model_start_is_never_lost_and_sets_the_nodes() {
     let found = optimize_controller(Valued::Exact(&w), &without, |_| Flow::Continue).unwrap();
     assert_eq!(found.policy.levels(), [3, 3]);
     assert!(found.value < start);
+}
+
+#[test]
+fn a_mealy_machine_decides_values_and_exports_as_its_moore_machine() {
+    for (name, n) in [("tiger.95.POMDP", 3), ("4x3.95.POMDP", 4), ("cheese.95.POMDP", 2)] {
+        let w = world(name, 400, None);
+        let t = w.tables();
+        let y1 = t.n_observations() + 1;
+        let controllers: Vec<Controller> = (0..3).map(|k| random_mealy(&w, n, k)).collect();
+        for (k, c) in controllers.iter().enumerate() {
+            c.check(y1, t.n_actions()).unwrap();
+            // Its Moore machine takes the same decisions on any observations.
+            let moore = c.to_moore(y1);
+            assert!(!moore.is_mealy() && moore.nodes() <= 1 + n * y1);
+            let mut rng = stream(4, Purpose::Evaluate, 1, k as u64);
+            let (mut q, mut p) = (0, 0);
+            for step in 0..50 {
+                let y = if step == 0 { y1 - 1 } else { rng.random_range(0..y1 - 1) };
+                assert_eq!(c.step(&mut q, y, y1), moore.step(&mut p, y, y1), "{name} {k} step {step}");
+            }
+            // Its value is its HHMM's exact value.
+            let policy = c.to_hhmm(y1, t.n_actions()).unwrap();
+            let exact = infinite_horizon(&w, &policy, 1e-9).unwrap().value;
+            assert!((value(&w, c, 1e-9) - exact).abs() < 1e-7, "{name} {k}");
+        }
+        // And the mean of its episodes.
+        episode_means_agree_with_exact_values(&w, &controllers, 5, name);
+    }
+    // A Mealy machine with too few decisions is refused, naming it.
+    let bad = Controller { on: vec![0; 2], ..Controller::moore(vec![0], vec![0, 0, 0]) };
+    assert!(matches!(bad.check(3, 3), Err(Error::InvalidArgument { name, .. }) if name == "controller"));
+}
+
+#[test]
+fn the_memoryless_stage_keeps_the_best_memoryless_policy_and_memory_adds_to_it() {
+    use ceworld::ce::controller::Decisions;
+    let tiger = world("tiger.95.POMDP", 10, None);
+    let y1 = tiger.tables().n_observations() + 1;
+    // Every memoryless policy: a one-node Mealy machine, 3³ of them.
+    let memoryless = (0..27u32)
+        .map(|code| {
+            let on = vec![code % 3, code / 3 % 3, code / 9];
+            value(&tiger, &Controller::mealy(on, vec![0; y1], y1), 1e-9)
+        })
+        .fold(f64::MIN, f64::max);
+    let config = ControllerConfig {
+        nodes: 4,
+        samples: 300,
+        patience: 10,
+        decisions: Decisions::Mealy,
+        memoryless_patience: 3,
+        model_nodes: 0,
+        threads: Some(2),
+        ..Default::default()
+    };
+    let found = optimize_controller(Valued::Exact(&tiger), &config, |_| Flow::Continue).unwrap();
+    let widened = found.history.iter().position(|r| r.widened).expect("the stage ends");
+    // The stage ends with the best memoryless policy (27 of them: every one is drawn), after
+    // `memoryless_patience` iterations without a better one, and memory adds to it.
+    let stage = &found.history[widened];
+    assert!((stage.best_so_far - memoryless).abs() < 1e-6, "{} vs {memoryless}", stage.best_so_far);
+    let found_at = found.history.iter().position(|r| r.best_so_far == stage.best_so_far).unwrap();
+    assert_eq!(widened - found_at, config.memoryless_patience);
+    assert!(found.history.iter().filter(|r| r.widened).count() == 1);
+    assert!(found.value > memoryless + 1.0, "{} vs memoryless {memoryless}", found.value);
+    assert_eq!(found.policy.levels()[0], found.policy.levels()[1]);
+    // One node asked: the stage is the whole search.
+    let one = ControllerConfig { nodes: 1, ..config };
+    let found = optimize_controller(Valued::Exact(&tiger), &one, |_| Flow::Continue).unwrap();
+    assert!(found.history.iter().all(|r| !r.widened));
+    assert!((found.value - memoryless).abs() < 1e-6);
 }

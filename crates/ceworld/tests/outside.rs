@@ -362,7 +362,7 @@ fn controllers_are_valued_and_searched_as_the_engine_would_whatever_the_batch_an
     use ceworld::ce::controller::{Controller, Valued, optimize_controller};
     use ceworld::episodes::{Episodes, Streams};
     let controllers: Vec<Controller> = (0..5u32)
-        .map(|k| Controller { act: vec![k % 2, (k / 2) % 2, 1], next: (0..9).map(|i| (i * 7 + k) % 3).collect() })
+        .map(|k| Controller::moore(vec![k % 2, (k / 2) % 2, 1], (0..9).map(|i| (i * 7 + k) % 3).collect()))
         .collect();
     let streams = Streams { seed: 4, purpose: Purpose::Controllers, iteration: 2 };
     let mut engine = vec![0.0; 5 * 6];
@@ -420,7 +420,7 @@ impl BatchWorld for Seeds {
 fn every_controller_is_valued_on_the_same_world_seeds() {
     use ceworld::ce::controller::Controller;
     use ceworld::episodes::{Episodes, Streams};
-    let controllers = vec![Controller { act: vec![0], next: vec![0] }; 3];
+    let controllers = vec![Controller::moore(vec![0], vec![0]); 3];
     let streams = Streams { seed: 1, purpose: Purpose::Controllers, iteration: 0 };
     for (batch, episodes) in [(1, 4), (2, 3), (3, 3), (8, 3), (5, 2)] {
         let world = Lockstep::new(Seeds { batch, seeds: Vec::new() }).unwrap();

@@ -76,6 +76,8 @@ fn every_controller_setting_is_set_by_its_name() {
         model_nodes: 9,
         template: ceworld::ce::controller::Template::Window,
         template_weight: 0.75,
+        decisions: ceworld::ce::controller::Decisions::Mealy,
+        memoryless_patience: 4,
     });
     every_setting_is_set_by_its_name(&ControllerConfig::default());
 }

@@ -111,7 +111,7 @@ impl Stepped for RandomSearch {
     fn start(world: &dyn Episodes, c: &RandomSearchConfig) -> Result<RandomSearch> {
         // The policy must fit before any work.
         let shape = world.shape();
-        Controller { act: vec![0; c.nodes], next: vec![0; c.nodes * shape.observations] }
+        Controller::moore(vec![0; c.nodes], vec![0; c.nodes * shape.observations])
             .to_hhmm(shape.observations, shape.decisions)?;
         Ok(RandomSearch::default())
     }
@@ -120,9 +120,11 @@ impl Stepped for RandomSearch {
         let shape = world.shape();
         let mut rng = stream(c.seed, Purpose::Init, iteration as u64, 0);
         let controllers: Vec<Controller> = (0..c.samples)
-            .map(|_| Controller {
-                act: (0..c.nodes).map(|_| rng.random_range(0..shape.decisions as u32)).collect(),
-                next: (0..c.nodes * shape.observations).map(|_| rng.random_range(0..c.nodes as u32)).collect(),
+            .map(|_| {
+                Controller::moore(
+                    (0..c.nodes).map(|_| rng.random_range(0..shape.decisions as u32)).collect(),
+                    (0..c.nodes * shape.observations).map(|_| rng.random_range(0..c.nodes as u32)).collect(),
+                )
             })
             .collect();
         let streams = Streams { seed: c.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };

@@ -2,7 +2,7 @@
 //! on exact values (a tabular world) or sampled ones (model §8).
 
 use crate::Result;
-use crate::ce::controller::{ControllerConfig, Template, ValueKind};
+use crate::ce::controller::{ControllerConfig, Decisions, Template, ValueKind};
 use crate::episodes::Episodes;
 use crate::run;
 
@@ -31,6 +31,16 @@ pub(crate) struct ControllerArgs {
     /// [default: uniform on exact values, mixed on sampled ones]
     #[arg(long, value_parser = parse_template)]
     template: Option<Template>,
+    /// What a decision reads: moore (the node) or mealy (the node and the observation: one
+    /// node is a memoryless policy). [default: moore on exact values, mealy on sampled ones]
+    #[arg(long, value_parser = parse_decisions, value_name = "moore|mealy")]
+    decisions: Option<Decisions>,
+    /// Mealy decisions without a model start: the laws start with one node (a memoryless
+    /// policy) and widen to --nodes around the best after this many iterations without a
+    /// better controller; 0: no memoryless stage. [default: 0 on exact values, 10 on sampled
+    /// ones]
+    #[arg(long)]
+    memoryless_patience: Option<usize>,
     #[command(flatten)]
     output: OutputArgs,
 }
@@ -47,6 +57,8 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
             samples: args.samples.unwrap_or(config.samples),
             rho: args.rho.unwrap_or(config.rho),
             template: args.template.unwrap_or(config.template),
+            decisions: args.decisions.unwrap_or(config.decisions),
+            memoryless_patience: args.memoryless_patience.unwrap_or(config.memoryless_patience),
             ..args.config.clone()
         };
         Ok(())
@@ -97,4 +109,8 @@ fn parse_value_kind(text: &str) -> std::result::Result<ValueKind, String> {
 
 fn parse_template(text: &str) -> std::result::Result<Template, String> {
     Template::parse(text).map_err(|e| e.to_string())
+}
+
+fn parse_decisions(text: &str) -> std::result::Result<Decisions, String> {
+    Decisions::parse(text).map_err(|e| e.to_string())
 }

@@ -375,9 +375,9 @@ impl Deciders for ControllerDeciders<'_> {
 
     fn decide(&self, (c, node): &mut Self::Slot, y: usize, _first: bool, row: &mut [u16]) {
         let controller = &self.controllers[*c];
-        *node = controller.next_node(*node, y, self.n_obs);
+        let d = controller.step(node, y, self.n_obs);
         row[0] = y as u16;
-        row[1] = controller.act[*node as usize] as u16;
+        row[1] = d as u16;
         row[2] = *node as u16;
     }
 }

@@ -118,8 +118,8 @@ pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut En
     let mut node = 0u32;
     for _ in 0..world.horizon() {
         let y = world.observe(&state, rng);
-        node = controller.next_node(node, y, n_obs);
-        world.step(&mut state, controller.act[node as usize] as usize, rng);
+        let d = controller.step(&mut node, y, n_obs);
+        world.step(&mut state, d as usize, rng);
         if world.done(&state) {
             break;
         }
@@ -175,9 +175,9 @@ mod tests {
     fn a_controller_moves_on_each_observation_and_stops_where_the_world_ends() {
         let rng = &mut stream(0, Purpose::Evaluate, 0, 0);
         // Node 1 + y after observation y, whose decision is y: every step pays.
-        let echo = Controller { act: vec![1, 0, 1], next: vec![1, 2, 1, 2, 1, 2] };
+        let echo = Controller::moore(vec![1, 0, 1], vec![1, 2, 1, 2, 1, 2]);
         // Node 0 forever, deciding 1: the odd steps pay.
-        let stuck = Controller { act: vec![1, 0, 0], next: vec![0; 6] };
+        let stuck = Controller::moore(vec![1, 0, 0], vec![0; 6]);
         let whole = Parity { stop: None };
         assert_eq!(run_controller(&whole, &echo, rng), 4.0 + 2.0);
         assert_eq!(run_controller(&whole, &stuck, rng), 2.0 + 2.0);

@@ -1,41 +1,67 @@
 //! A deterministic finite-state controller (model §8): the policies the controller search draws.
 //!
-//! A controller is a Moore machine over a world's observations: node `q` takes decision
-//! `act[q]`; on observation `y` it moves to `next[q·Y + y]` (`Y` the world's observation count).
-//! It starts in node 0, before the first observation, so that its first node is `next[y_1]`
-//! and its first decision `act[next[y_1]]`. (A tabular world's first observation is its start
-//! symbol, model §7, so there the first node is `next[|O|]`.) As an HHMM (model §2) it is the
-//! two-level policy `[n, n]` with one-hot tables `h0[q] = act[q]`, `h1[y][u] = next[u·Y + y]`,
-//! `start = 0`, `step[p] = p`, so that evaluation, exact values, graphs and policy files take it
-//! as it is; a controller draws no randomness of its own.
+//! A controller is a machine over a world's observations. Node `q` on observation `y` moves to
+//! `next[q·Y + y]` (`Y` the world's observation count); it starts in node 0, before the first
+//! observation, so that its first node is `next[y_1]`. (A tabular world's first observation is
+//! its start symbol, model §7, so there the first node is `next[|O|]`.) Its decision is either
+//! the new node's (a Moore machine: `act[q']`, with `on` empty), or the old node's on what it
+//! observes (a Mealy machine: `on[q·Y + y]`, with `act` all 0): a Mealy machine of one node is a
+//! memoryless policy, and of `n` nodes it holds every Moore machine of `n` nodes.
+//!
+//! As an HHMM (model §2) a Moore machine is the two-level policy `[n, n]` with one-hot tables
+//! `h0[q] = act[q]`, `h1[y][u] = next[u·Y + y]`, `start = 0`, `step[p] = p`, so that
+//! evaluation, exact values, graphs and policy files take it as it is; a Mealy machine becomes
+//! the Moore machine whose nodes are its (node, observation) pairs ([`Controller::to_moore`]).
+//! A controller draws no randomness of its own.
 
 use crate::error::Result;
 use crate::policy::{Hhmm, Layout};
 
-/// A deterministic controller: `act[q]` and `next[q·Y + y]`.
+/// A deterministic controller: `act[q]` (Moore) or `on[q·Y + y]` (Mealy), and `next[q·Y + y]`.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct Controller {
-    /// The decision of each node.
+    /// The decision of each node (a Moore machine; all 0 in a Mealy machine).
     pub act: Vec<u32>,
     /// The successor of node `q` after observation `y`, at `q·Y + y`.
     pub next: Vec<u32>,
+    /// A Mealy machine's decisions: node `q`'s on observation `y`, at `q·Y + y`, taken before it
+    /// moves; empty in a Moore machine.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub on: Vec<u32>,
 }
 
 impl Controller {
+    /// A Moore machine.
+    pub fn moore(act: Vec<u32>, next: Vec<u32>) -> Controller {
+        Controller { act, next, on: Vec::new() }
+    }
+
+    /// A Mealy machine of `next.len() / Y` nodes.
+    pub fn mealy(on: Vec<u32>, next: Vec<u32>, n_obs: usize) -> Controller {
+        Controller { act: vec![0; next.len() / n_obs.max(1)], next, on }
+    }
+
     /// Number of nodes.
     pub fn nodes(&self) -> usize {
         self.act.len()
     }
 
-    /// The node after observation `y` in node `q`, for a world of `n_obs` observations.
+    /// Whether the decisions are a Mealy machine's.
+    pub fn is_mealy(&self) -> bool {
+        !self.on.is_empty()
+    }
+
+    /// One step on observation `y` (of `n_obs`): moves `node` on and returns the decision.
     #[inline]
-    pub fn next_node(&self, q: u32, y: usize, n_obs: usize) -> u32 {
-        self.next[q as usize * n_obs + y]
+    pub fn step(&self, node: &mut u32, y: usize, n_obs: usize) -> u32 {
+        let i = *node as usize * n_obs + y;
+        *node = self.next[i];
+        if self.on.is_empty() { self.act[*node as usize] } else { self.on[i] }
     }
 
     /// Checks that this is a controller of a world of `n_obs` observations and `n_actions`
-    /// decisions: at least one node, a decision below `n_actions` per node, a successor below
-    /// the node count per node and observation.
+    /// decisions: at least one node, a decision below `n_actions` per node (or per node and
+    /// observation), a successor below the node count per node and observation.
     pub fn check(&self, n_obs: usize, n_actions: usize) -> Result<()> {
         let n = self.act.len();
         let invalid = |why: String| Err(crate::error::Error::invalid("controller", why));
@@ -45,7 +71,13 @@ impl Controller {
                 self.next.len()
             ));
         }
-        if let Some(a) = self.act.iter().find(|&&a| a as usize >= n_actions) {
+        if !self.on.is_empty() && (self.on.len() != self.next.len() || self.act.iter().any(|&a| a != 0)) {
+            return invalid(format!(
+                "{} Mealy decisions for {n} nodes (expected nodes · {n_obs}, and every Moore decision 0)",
+                self.on.len()
+            ));
+        }
+        if let Some(a) = self.act.iter().chain(&self.on).find(|&&a| a as usize >= n_actions) {
             return invalid(format!("decision {a} (expected below {n_actions})"));
         }
         if let Some(q) = self.next.iter().find(|&&q| q as usize >= n) {
@@ -54,18 +86,62 @@ impl Controller {
         Ok(())
     }
 
+    /// The Moore machine that decides as this one does (itself, for a Moore machine): node 0
+    /// the start, then one node per (node reached from the start, observation), numbered
+    /// `1 + k·Y + y` with `k` the node's rank in the order it is first reached. It takes the
+    /// decision this machine takes in node `q` on `y`, and moves on `y'` to `(next[q·Y + y], y')`.
+    pub fn to_moore(&self, n_obs: usize) -> Controller {
+        if self.on.is_empty() {
+            return self.clone();
+        }
+        let mut rank = vec![u32::MAX; self.nodes()];
+        let mut order = vec![0u32];
+        rank[0] = 0;
+        let mut i = 0;
+        while i < order.len() {
+            let q = order[i] as usize;
+            for &to in &self.next[q * n_obs..(q + 1) * n_obs] {
+                if rank[to as usize] == u32::MAX {
+                    rank[to as usize] = order.len() as u32;
+                    order.push(to);
+                }
+            }
+            i += 1;
+        }
+        let node = |k: u32, y: usize| 1 + k * n_obs as u32 + y as u32;
+        let m = 1 + order.len() * n_obs;
+        let mut act = vec![0; m];
+        let mut next = vec![0; m * n_obs];
+        for (y2, to) in next[..n_obs].iter_mut().enumerate() {
+            *to = node(0, y2);
+        }
+        for (k, &q) in order.iter().enumerate() {
+            for y in 0..n_obs {
+                let i = q as usize * n_obs + y;
+                let from = node(k as u32, y) as usize;
+                act[from] = self.on[i];
+                let after = rank[self.next[i] as usize];
+                for y2 in 0..n_obs {
+                    next[from * n_obs + y2] = node(after, y2);
+                }
+            }
+        }
+        Controller::moore(act, next)
+    }
+
     /// The two-level one-hot HHMM of this controller (module docs).
     pub fn to_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
-        let n = self.act.len();
+        let c = self.to_moore(n_obs);
+        let n = c.act.len();
         let layout = Layout::new(n_obs, n_actions, &[n, n])?.fits_in_memory()?;
         let mut probs = vec![0.0; layout.len];
         let t = &layout.tables;
-        for (q, &a) in self.act.iter().enumerate() {
+        for (q, &a) in c.act.iter().enumerate() {
             probs[t[0].offset + q * n_actions + a as usize] = 1.0;
         }
         for y in 0..n_obs {
             for u in 0..n {
-                probs[t[1].offset + (y * n + u) * n + self.next[u * n_obs + y] as usize] = 1.0;
+                probs[t[1].offset + (y * n + u) * n + c.next[u * n_obs + y] as usize] = 1.0;
             }
         }
         probs[t[2].offset] = 1.0;

@@ -99,12 +99,42 @@ impl Template {
     }
 }
 
+/// What a controller's decision reads (model §8).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Decisions {
+    /// The node alone (a Moore machine): the node after the observation decides.
+    Moore,
+    /// The node and the observation (a Mealy machine): the node before the observation decides
+    /// on it, so that one node is a memoryless policy.
+    Mealy,
+}
+
+impl Decisions {
+    /// `"moore"` or `"mealy"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Decisions::Moore => "moore",
+            Decisions::Mealy => "mealy",
+        }
+    }
+
+    /// The kind named `name`, or an error listing both.
+    pub fn parse(name: &str) -> Result<Decisions> {
+        match name {
+            "moore" => Ok(Decisions::Moore),
+            "mealy" => Ok(Decisions::Mealy),
+            other => Err(Error::invalid("decisions", format!("{other:?} (expected \"moore\" or \"mealy\")"))),
+        }
+    }
+}
+
 /// The settings of a controller search; `Default` gives settings that suit the small files of
 /// `data/pomdp/` (model §8), [`ControllerConfig::defaults_for`] those of each kind of value. The
 /// one home of each setting: its doc is the CLI's help (`ceworld controller --help`), its name
 /// the Python keyword ([`Settings::set`]) and the checkpoint's and policy file's key. The
-/// settings whose default depends on the kind of value (`samples`, `rho`, `template`) are the
-/// CLI's own options.
+/// settings whose default depends on the kind of value (`samples`, `rho`, `template`,
+/// `decisions`, `memoryless_patience`) are the CLI's own options.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ControllerConfig {
@@ -195,12 +225,29 @@ pub struct ControllerConfig {
     /// every first law), in [0, 1).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().template_weight))]
     pub template_weight: f64,
+    /// What a decision reads: the node (`moore`) or the node and the observation (`mealy`).
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().decisions))]
+    #[serde(default = "moore")]
+    pub decisions: Decisions,
+    /// A memoryless stage first (Mealy decisions, no model start kept): the laws start with one
+    /// node (a memoryless policy) and widen to `nodes` nodes around the best one after this
+    /// many iterations without a better controller; 0: no memoryless stage.
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().memoryless_patience))]
+    #[serde(default)]
+    pub memoryless_patience: usize,
+}
+
+/// The decisions of a checkpoint written before they could be chosen.
+fn moore() -> Decisions {
+    Decisions::Moore
 }
 
 impl Settings for ControllerConfig {
     fn set(&mut self, s: &Setting<'_>) -> Result<()> {
         // `None` leaves a setting whose default depends on the kind of value at that default.
-        if s.value == Given::Nothing && matches!(s.name, "samples" | "rho" | "template") {
+        if s.value == Given::Nothing
+            && matches!(s.name, "samples" | "rho" | "template" | "decisions" | "memoryless_patience")
+        {
             return Ok(());
         }
         match s.name {
@@ -226,6 +273,8 @@ impl Settings for ControllerConfig {
             "model_nodes" => self.model_nodes = s.count()?,
             "template" => self.template = s.choice(Template::parse)?,
             "template_weight" => self.template_weight = s.real()?,
+            "decisions" => self.decisions = s.choice(Decisions::parse)?,
+            "memoryless_patience" => self.memoryless_patience = s.count()?,
             other => return Err(self.unknown(other)),
         }
         Ok(())
@@ -257,6 +306,8 @@ impl Default for ControllerConfig {
             model_nodes: 64,
             template: Template::Uniform,
             template_weight: 0.5,
+            decisions: Decisions::Moore,
+            memoryless_patience: 0,
         }
     }
 }
@@ -264,13 +315,20 @@ impl Default for ControllerConfig {
 impl ControllerConfig {
     /// The defaults of a search on `kind` values: [`Default`]'s on exact values; on sampled ones
     /// `N = 1000`, `ρ = 0.05` and the `mixed` template, which solve the memory tasks of
-    /// `docs/memory-benchmark.md` where the exact defaults leave `RepeatFirst` at −0.26 (model §8).
+    /// `docs/memory-benchmark.md` where the exact defaults leave `RepeatFirst` at −0.26, and
+    /// Mealy decisions after a memoryless stage, so that the memory only adds to the best
+    /// memoryless policy (model §8).
     pub fn defaults_for(kind: ValueKind) -> ControllerConfig {
         match kind {
             ValueKind::Exact => ControllerConfig::default(),
-            ValueKind::Sampled => {
-                ControllerConfig { samples: 1000, rho: 0.05, template: Template::Mixed, ..ControllerConfig::default() }
-            }
+            ValueKind::Sampled => ControllerConfig {
+                samples: 1000,
+                rho: 0.05,
+                template: Template::Mixed,
+                decisions: Decisions::Mealy,
+                memoryless_patience: 10,
+                ..ControllerConfig::default()
+            },
         }
     }
 
@@ -376,6 +434,17 @@ impl ControllerConfig {
         }
         if !(self.injection > 0.0 && self.injection <= 1.0) {
             return Err(Error::invalid("injection", format!("{} (expected 0 < injection <= 1)", self.injection)));
+        }
+        if self.memoryless_patience > 0 && self.decisions != Decisions::Mealy {
+            return Err(Error::invalid(
+                "memoryless_patience",
+                format!(
+                    "{} with decisions \"{}\" (a memoryless stage needs decisions \"mealy\": one Moore node \
+                     is a blind policy; or memoryless_patience 0)",
+                    self.memoryless_patience,
+                    self.decisions.as_str()
+                ),
+            ));
         }
         Ok(())
     }

@@ -12,26 +12,39 @@ pub struct Laws {
     n: usize,
     n_actions: usize,
     y1: usize,
-    /// `act[q·A + a]`.
+    /// Whether the controllers are Mealy machines: a decision law per node and observation.
+    #[serde(default)]
+    mealy: bool,
+    /// `act[r·A + a]`, `r` the node (Moore) or `q·(|O|+1) + y` (Mealy).
     act: Vec<f64>,
     /// `next[(q·(|O|+1) + y)·n + q']`.
     next: Vec<f64>,
 }
 
 impl Laws {
-    pub(super) fn uniform(n: usize, n_actions: usize, y1: usize) -> Laws {
+    pub(super) fn uniform(n: usize, n_actions: usize, y1: usize, mealy: bool) -> Laws {
+        let rows = if mealy { n * y1 } else { n };
         Laws {
             n,
             n_actions,
             y1,
-            act: vec![1.0 / n_actions as f64; n * n_actions],
+            mealy,
+            act: vec![1.0 / n_actions as f64; rows * n_actions],
             next: vec![1.0 / n as f64; n * y1 * n],
         }
     }
 
+    /// One-hot laws on `c`'s choices (all 0 before they are set).
+    fn zero(n: usize, n_actions: usize, y1: usize, mealy: bool) -> Laws {
+        let mut laws = Laws::uniform(n, n_actions, y1, mealy);
+        laws.act.fill(0.0);
+        laws.next.fill(0.0);
+        laws
+    }
+
     /// The uniform laws with `weight` of each successor law moved onto `template`'s successors.
-    pub(super) fn start(n: usize, n_actions: usize, y1: usize, template: Template, weight: f64) -> Laws {
-        let mut laws = Laws::uniform(n, n_actions, y1);
+    pub(super) fn start(n: usize, n_actions: usize, y1: usize, mealy: bool, template: Template, weight: f64) -> Laws {
+        let mut laws = Laws::uniform(n, n_actions, y1, mealy);
         for q in 0..n {
             for y in 0..y1 {
                 let targets = template.successors(q, y, n, y1);
@@ -63,7 +76,12 @@ impl Laws {
     pub(super) fn draw(&self, rng: &mut crate::rng::EngineRng) -> Controller {
         let act = self.act.chunks(self.n_actions).map(|row| pick(row, rng.random())).collect();
         let next = self.next.chunks(self.n).map(|row| pick(row, rng.random())).collect();
-        Controller { act, next }
+        if self.mealy { Controller::mealy(act, next, self.y1) } else { Controller::moore(act, next) }
+    }
+
+    /// The decisions of `c` that these laws draw: `on` (Mealy) or `act` (Moore).
+    fn decisions<'c>(&self, c: &'c Controller) -> &'c [u32] {
+        if self.mealy { &c.on } else { &c.act }
     }
 
     /// `p := α·frequency + (1 − α)·p` over the elite.
@@ -73,8 +91,8 @@ impl Laws {
             *p *= 1.0 - alpha;
         }
         for c in elite {
-            for (q, &a) in c.act.iter().enumerate() {
-                self.act[q * self.n_actions + a as usize] += weight;
+            for (r, &a) in self.decisions(c).iter().enumerate() {
+                self.act[r * self.n_actions + a as usize] += weight;
             }
             for (row, &q2) in c.next.iter().enumerate() {
                 self.next[row * self.n + q2 as usize] += weight;
@@ -85,7 +103,7 @@ impl Laws {
     /// Mean over rows of the largest probability.
     pub(super) fn concentration(&self) -> f64 {
         let rows = self.act.chunks(self.n_actions).chain(self.next.chunks(self.n));
-        let count = self.n + self.n * self.y1;
+        let count = self.act.len() / self.n_actions + self.n * self.y1;
         rows.map(|r| r.iter().copied().fold(0.0, f64::max)).sum::<f64>() / count as f64
     }
 }
@@ -122,10 +140,16 @@ impl Laws {
         // The most entered node, the first of equals.
         let k = (0..n).fold(0, |b, q| if entered[q] > entered[b] { q } else { b });
         let n1 = n + 1;
-        let mut laws = Laws { n: n1, n_actions, y1, act: vec![0.0; n1 * n_actions], next: vec![0.0; n1 * y1 * n1] };
+        let mut laws = Laws::zero(n1, n_actions, y1, best.is_mealy());
         for q in 0..n1 {
             let from = if q == n { k } else { q };
-            laws.act[q * n_actions + best.act[from] as usize] = 1.0;
+            if best.is_mealy() {
+                for y in 0..y1 {
+                    laws.act[(q * y1 + y) * n_actions + best.on[from * y1 + y] as usize] = 1.0;
+                }
+            } else {
+                laws.act[q * n_actions + best.act[from] as usize] = 1.0;
+            }
             for y in 0..y1 {
                 let to = best.next[from * y1 + y] as usize;
                 let row = &mut laws.next[(q * y1 + y) * n1..(q * y1 + y + 1) * n1];
@@ -144,15 +168,29 @@ impl Laws {
     /// The laws around `c` (a model start): each law is `c`'s choice with `weight`, the
     /// uniform law with the rest.
     pub(super) fn around(c: &Controller, n_actions: usize, y1: usize, weight: f64) -> Laws {
-        let n = c.nodes();
-        let mut laws = Laws { n, n_actions, y1, act: vec![0.0; n * n_actions], next: vec![0.0; n * y1 * n] };
-        for (q, &a) in c.act.iter().enumerate() {
-            laws.act[q * n_actions + a as usize] = 1.0;
+        let mut laws = Laws::zero(c.nodes(), n_actions, y1, c.is_mealy());
+        for (r, &a) in laws.decisions(c).iter().enumerate() {
+            laws.act[r * n_actions + a as usize] = 1.0;
         }
+        let n = c.nodes();
         for (row, &to) in c.next.iter().enumerate() {
             laws.next[row * n + to as usize] = 1.0;
         }
         laws.inject(1.0 - weight);
+        laws
+    }
+
+    /// The laws of `n` nodes around the memoryless policy `best` (a one-node Mealy machine: the
+    /// end of a memoryless stage): every node's decision law on `y` is `best`'s decision on `y`
+    /// with `weight` and the uniform law with the rest; the successor laws are `template`'s at
+    /// `weight`.
+    pub(super) fn widened(best: &Controller, n: usize, n_actions: usize, template: Template, weight: f64) -> Laws {
+        let y1 = best.next.len();
+        let mut laws = Laws::start(n, n_actions, y1, true, template, weight);
+        for (r, row) in laws.act.chunks_mut(n_actions).enumerate() {
+            row.fill((1.0 - weight) / n_actions as f64);
+            row[best.on[r % y1] as usize] += weight;
+        }
         laws
     }
 
@@ -173,19 +211,19 @@ mod tests {
     fn templates_move_their_weight_onto_their_successors() {
         let (n, a, y) = (4, 2, 3);
         let row = |laws: &Laws, q: usize, o: usize| laws.next[(q * y + o) * n..(q * y + o + 1) * n].to_vec();
-        let hold = Laws::start(n, a, y, Template::Hold, 0.6);
+        let hold = Laws::start(n, a, y, false, Template::Hold, 0.6);
         // The start node stays uniform; node 2 keeps 0.6 + 0.4/4 on itself.
         assert_eq!(row(&hold, 0, 1), vec![0.25; 4]);
         assert_eq!(row(&hold, 2, 1), vec![0.1, 0.1, 0.7, 0.1]);
-        let clock = Laws::start(n, a, y, Template::Clock, 0.6);
+        let clock = Laws::start(n, a, y, false, Template::Clock, 0.6);
         assert_eq!(row(&clock, 0, 2), vec![0.1, 0.7, 0.1, 0.1]);
         assert_eq!(row(&clock, 3, 0), vec![0.1, 0.1, 0.1, 0.7]);
-        let mixed = Laws::start(n, a, y, Template::Mixed, 0.6);
+        let mixed = Laws::start(n, a, y, false, Template::Mixed, 0.6);
         assert_eq!(row(&mixed, 1, 0), vec![0.1, 0.4, 0.4, 0.1]);
         assert_eq!(row(&mixed, 0, 0), vec![0.1, 0.7, 0.1, 0.1]);
-        assert_eq!(Laws::start(n, a, y, Template::Uniform, 0.6).next, Laws::uniform(n, a, y).next);
+        assert_eq!(Laws::start(n, a, y, false, Template::Uniform, 0.6).next, Laws::uniform(n, a, y, false).next);
         // A window: node 3 after observation 2 moves to (3·3 + 2) mod 4 = 3; node 1 after 0 to 3.
-        let window = Laws::start(n, a, y, Template::Window, 0.6);
+        let window = Laws::start(n, a, y, false, Template::Window, 0.6);
         assert_eq!(row(&window, 3, 2), vec![0.1, 0.1, 0.1, 0.7]);
         assert_eq!(row(&window, 1, 0), vec![0.1, 0.1, 0.1, 0.7]);
         assert_eq!(row(&window, 0, 1), vec![0.1, 0.7, 0.1, 0.1]);
@@ -210,7 +248,7 @@ mod tests {
         let (n_actions, y1) = (3, 4);
         let mut rng = stream(9, Purpose::Optimise, 0, 0);
         for case in 0..20 {
-            let best = Laws::uniform(3, n_actions, y1).draw(&mut rng);
+            let best = Laws::uniform(3, n_actions, y1, false).draw(&mut rng);
             let grown = Laws::grown(&best, n_actions, y1, 0.0);
             assert_eq!((grown.nodes(), grown.shape()), (4, (n_actions, y1)));
             assert!(
@@ -228,13 +266,13 @@ mod tests {
             }
         }
         // The uniform law mixed in: every successor has some probability.
-        let best = Laws::uniform(2, n_actions, y1).draw(&mut rng);
+        let best = Laws::uniform(2, n_actions, y1, false).draw(&mut rng);
         assert!(Laws::grown(&best, n_actions, y1, 0.2).next.iter().all(|&p| p >= 0.2 / 3.0 - 1e-12));
     }
 
     #[test]
     fn draws_follow_the_laws_and_an_injection_mixes_in_the_uniform_law() {
-        let mut laws = Laws::start(3, 2, 2, Template::Hold, 0.9);
+        let mut laws = Laws::start(3, 2, 2, false, Template::Hold, 0.9);
         // Frequencies of node 1's successor after observation 0: 0.9 + 0.1/3 on itself.
         let draws = 20_000;
         let held = (0..draws).filter(|&k| laws.draw(&mut stream(5, Purpose::Optimise, 0, k)).next[2] == 1).count()
@@ -245,5 +283,28 @@ mod tests {
         laws.inject(0.5);
         assert!((laws.next[2 * 3 + 1] - (0.5 * p + 0.5 / 3.0)).abs() < 1e-12);
         assert!((laws.act[0] - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn widened_laws_start_from_the_memoryless_policy_and_mealy_laws_refit_their_decisions() {
+        let (a, y1) = (3, 4);
+        let best = Controller::mealy(vec![2, 0, 1, 2], vec![0; 4], y1);
+        let laws = Laws::widened(&best, 5, a, Template::Hold, 0.6);
+        assert!(laws.mealy && laws.nodes() == 5 && laws.act.len() == 5 * y1 * a);
+        for (r, row) in laws.act.chunks(a).enumerate() {
+            for (d, &p) in row.iter().enumerate() {
+                let expected = if d as u32 == best.on[r % y1] { 0.6 + 0.4 / 3.0 } else { 0.4 / 3.0 };
+                assert!((p - expected).abs() < 1e-12, "row {r}: {row:?}");
+            }
+        }
+        assert_eq!(laws.next, Laws::start(5, a, y1, true, Template::Hold, 0.6).next);
+        // A Mealy machine is drawn, and a whole refit onto it gives its one-hot laws.
+        let c = laws.draw(&mut stream(1, Purpose::Optimise, 0, 0));
+        assert!(c.is_mealy() && c.on.len() == 5 * y1 && c.nodes() == 5);
+        c.check(y1, a).unwrap();
+        let mut refit = laws.clone();
+        refit.refit(&[&c], 1.0);
+        assert_eq!(refit, Laws::around(&c, a, y1, 1.0));
+        assert!((refit.concentration() - 1.0).abs() < 1e-12);
     }
 }

@@ -34,7 +34,7 @@ use crate::rng::{Purpose, restart_seed, stream};
 use crate::settings::Settings;
 use crate::world::pomdp::PomdpWorld;
 
-pub use config::{ControllerConfig, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
+pub use config::{ControllerConfig, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
 use laws::Laws;
 use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
@@ -66,6 +66,10 @@ pub struct ControllerIteration {
     /// Whether the laws grew a node after this iteration (an escape).
     #[serde(default)]
     pub grown: bool,
+    /// Whether the memoryless stage ended after this iteration: the laws widened from one node
+    /// to `nodes` around the best memoryless policy.
+    #[serde(default)]
+    pub widened: bool,
 }
 
 /// The outcome of a controller search.
@@ -171,8 +175,10 @@ pub fn optimize_controller_with(
     }
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
     let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing, None)?;
+    let staged = start.is_none() && config.memoryless_patience > 0;
     if let Some(run) = &saver.state.run
-        && (run.laws.nodes() != nodes + run.growths || run.laws.shape() != (n_actions, y1))
+        && ((run.laws.nodes() != nodes + run.growths && !(staged && run.laws.nodes() == 1))
+            || run.laws.shape() != (n_actions, y1))
     {
         return Err(crate::error::Error::CheckpointMismatch("the checkpoint's laws do not fit this search".into()));
     }
@@ -264,7 +270,7 @@ fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<Controll
     let mut scratch = Scratch::default();
     let y1 = world.tables().n_observations() + 1;
     let blind = (0..world.tables().n_actions() as u32)
-        .map(|a| values.value(&Controller { act: vec![a], next: vec![0; y1] }, &mut scratch))
+        .map(|a| values.value(&Controller::moore(vec![a], vec![0; y1]), &mut scratch))
         .fold(f64::NEG_INFINITY, f64::max);
     (values.value(&built, &mut scratch) > blind + config.tolerance).then_some(built)
 }
@@ -399,7 +405,11 @@ impl Search<'_> {
         SearchState {
             laws: match &self.start {
                 Some(start) => Laws::around(start, self.n_actions, self.y1, c.template_weight),
-                None => Laws::start(c.nodes, self.n_actions, self.y1, c.template, c.template_weight),
+                None if c.memoryless_patience > 0 => Laws::uniform(1, self.n_actions, self.y1, true),
+                None => {
+                    let mealy = c.decisions == Decisions::Mealy;
+                    Laws::start(c.nodes, self.n_actions, self.y1, mealy, c.template, c.template_weight)
+                }
             },
             best: None,
             history: Vec::new(),
@@ -503,6 +513,13 @@ impl Search<'_> {
             progress = true;
         }
         state.since_progress = if progress { 0 } else { state.since_progress + 1 };
+        let best_now = state.best.as_ref().map(|b| b.0);
+        // Iterations in a row without a better controller (this one included).
+        let since_better = if state.best.as_ref().is_some_and(|b| b.2 == *iteration) {
+            0
+        } else {
+            state.history.iter().rev().take_while(|r| Some(r.best_so_far) == best_now).count()
+        };
         // Ties at the threshold are left out when some controllers beat it: a plateau of equal
         // values (e.g. tiger's "always listen") would otherwise fill the elite and hold the laws
         // there.
@@ -515,13 +532,23 @@ impl Search<'_> {
         }
         // Patience run out with escapes left: mix in the uniform law, or else grow a node around
         // the best controller, and go on.
-        let (injected, grown) = if state.since_progress >= config.patience {
+        // The memoryless stage over: the laws widen to `nodes` nodes around its best.
+        let widened = state.laws.nodes() == 1
+            && config.nodes > 1
+            && self.start.is_none()
+            && config.memoryless_patience > 0
+            && since_better >= config.memoryless_patience;
+        if widened {
+            let best = &state.best.as_ref().expect("a best controller after an iteration").1;
+            state.laws = Laws::widened(best, config.nodes, self.n_actions, config.template, config.template_weight);
+        }
+        let (injected, grown) = if !widened && state.since_progress >= config.patience {
             let from = state.best.as_ref().map(|b| &b.1).expect("a best controller after an iteration");
             self.escape(&mut state.laws, from, &mut state.injections, &mut state.growths)
         } else {
             (false, false)
         };
-        if injected || grown {
+        if injected || grown || widened {
             state.since_progress = 0;
             best_threshold = f64::NEG_INFINITY;
         }
@@ -542,6 +569,7 @@ impl Search<'_> {
             evaluated: drawn.len(),
             injected,
             grown,
+            widened,
         }
     }
 }

@@ -114,6 +114,13 @@ impl<'a> ControllerValue<'a> {
     /// The value of `c` from the start law.
     pub fn value(&self, c: &Controller, scratch: &mut Scratch) -> f64 {
         let t = self.world.tables();
+        let moore;
+        let c = if c.is_mealy() {
+            moore = c.to_moore(t.n_observations() + 1);
+            &moore
+        } else {
+            c
+        };
         let gamma = t.gamma;
         let first = c.next[t.n_observations()];
         self.reach(c, scratch);
