@@ -54,7 +54,6 @@ SHORTER: list[tuple[str, str, str]] = [
     # grid) left out of the comparison.
     ("qlearn --iterations 1e9", f"qlearn --iterations 1e5 {SMALL_GRID}", "2.6 GB, hours"),
     ("qlearn-eval q.bin --ce-policy p16.json", "qlearn-eval q.bin", "the 10 x 10 grid of the table above"),
-    ("RepeatFirst(), target=1.0)", "RepeatFirst(), target=1.0, max_iterations=3)", "30 s"),
     (
         "samples=500, select_episodes=200)",
         "samples=20, select_episodes=20, max_iterations=2, eval_episodes=100)",

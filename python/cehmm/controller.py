@@ -152,7 +152,7 @@ def optimize_controller(
         value: ``"exact"`` (a :class:`PomdpWorld` only; its default) or ``"sampled"`` (the
             default of every other world).
         episodes: sampled values: episodes per controller and iteration.
-        samples: controllers per iteration (default 2000 on exact values, 1000 on sampled:
+        samples: controllers per iteration (default 2000 on exact values, 200 on sampled:
             ``cehmm.controller.CONTROLLER_DEFAULTS`` and its ``"sampled"`` entry).
         rho: selective rate, ``0 < rho < 1`` (default 0.02 on exact values, 0.05 on sampled).
         smoothing: ``0 < smoothing <= 1``.
@@ -161,15 +161,18 @@ def optimize_controller(
         max_iterations: stop a run after this many iterations.
         target: stop once the best value so far reaches this.
         time_limit: stop after this many seconds (all runs together), checked before each
-            controller's evaluation on exact values here, before each iteration on sampled ones
-            and on exact values computed by a backend; an
-            iteration it cuts does not refit the laws.
+            controller's evaluation on exact values here, between groups of about 1024
+            episodes on sampled values here, before each iteration on a backend; an iteration it
+            cuts does not refit the laws. On sampled values the returned controller's evaluation
+            (``eval_episodes``) comes after it.
         tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
             counts as progress.
         seed: seed of every random stream.
         threads: worker threads (default: one per core).
         restarts: independent runs (the first with ``seed``); the best controller of all is
-            returned (exact values, or the best on the selection episodes).
+            returned (exact values, or the best on the selection episodes). 0 (the default):
+            runs follow one another until ``time_limit`` or ``target`` (one run without a time
+            limit).
         candidates: sampled values: controllers of each iteration scored on the selection
             episodes.
         select_episodes: sampled values: the selection episodes.
@@ -202,8 +205,9 @@ def optimize_controller(
             values, ``"mealy"`` on sampled.
         memoryless_patience: with Mealy decisions and no model start, a memoryless stage first:
             the laws start with one node and widen to ``nodes`` around the best memoryless
-            policy after this many iterations without a better controller, so that memory only
-            adds to it; 0: none (default 0 on exact values, 10 on sampled).
+            policy after this many iterations without a better controller (three times as
+            many in all at most), so that memory only adds to it; 0: none (default 0 on exact
+            values, 10 on sampled).
         progress: print a live progress line on stderr.
         checkpoint: a file where the whole state of the search (laws, best controller so far,
             history, finished restarts) is saved every ``checkpoint_every`` seconds and whenever

@@ -102,7 +102,8 @@ pub struct Progress {
 }
 
 impl Progress {
-    /// Progress of a run with `patience` and `restarts` runs on `line`.
+    /// Progress of a run with `patience` and `restarts` runs (0: as many as a time limit
+    /// allows) on `line`.
     pub fn new(patience: usize, restarts: usize, line: LiveLine) -> Progress {
         Progress { line, patience, restarts, runs: 0, best: (f64::NEG_INFINITY, 0), since: 0 }
     }
@@ -113,7 +114,9 @@ impl Progress {
         if r.iteration == 0 {
             self.runs += 1;
             if self.runs > 1 {
-                self.line.note(&format!("restart {} of {}", self.runs, self.restarts));
+                // 0 runs: as many as the time limit allows.
+                let of = if self.restarts == 0 { String::new() } else { format!(" of {}", self.restarts) };
+                self.line.note(&format!("restart {}{of}", self.runs));
             }
             self.best = (f64::NEG_INFINITY, 0);
             self.since = 0;

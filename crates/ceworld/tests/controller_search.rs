@@ -186,6 +186,14 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
         optimize_controller(Valued::Exact(&w), &ControllerConfig { restarts: 1, ..config.clone() }, |_| Flow::Continue)
             .unwrap();
     assert_eq!(single.value, out.run_values[0]);
+    // Restarts 0: runs follow one another until the time limit (one without a time limit).
+    let until = ControllerConfig { restarts: 0, max_iterations: None, patience: 2, ..config.clone() };
+    let once = optimize_controller(Valued::Exact(&w), &until, |_| Flow::Continue).unwrap();
+    assert_eq!((once.run_values.len(), once.stop), (1, StopReason::Patience));
+    let timed = ControllerConfig { time_limit: Some(0.5), ..until };
+    let many = optimize_controller(Valued::Exact(&w), &timed, |_| Flow::Continue).unwrap();
+    assert!(many.run_values.len() > 2 && many.stop == StopReason::TimeLimit, "{:?}", many.run_values);
+    assert_eq!(many.run_values[0], once.run_values[0]);
 
     let mut seen = 0;
     let stopped = optimize_controller(Valued::Exact(&w), &config, |_| {
@@ -207,7 +215,7 @@ fn bad_settings_are_named() {
         ("rho", ControllerConfig { rho: 1.0, ..Default::default() }),
         ("smoothing", ControllerConfig { smoothing: 0.0, ..Default::default() }),
         ("tolerance", ControllerConfig { tolerance: f64::NAN, ..Default::default() }),
-        ("restarts", ControllerConfig { restarts: 0, ..Default::default() }),
+        ("restarts", ControllerConfig { restarts: ceworld::ce::controller::MAX_RESTARTS + 1, ..Default::default() }),
         ("time_limit", ControllerConfig { time_limit: Some(-1.0), ..Default::default() }),
         // A memoryless stage of Moore machines would be a blind policy's.
         ("memoryless_patience", ControllerConfig { memoryless_patience: 3, ..Default::default() }),
@@ -231,6 +239,17 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     let first = &out.history[0];
     assert!(first.evaluated >= 1 && first.evaluated < 2000, "{}", first.evaluated);
     assert!(out.value.is_finite() && out.value == first.best_so_far);
+    // Sampled values: cut between groups of controllers, each group's values those of a whole
+    // iteration.
+    let w = world("hallway.POMDP", 60, None);
+    let config = ControllerConfig { samples: 3000, episodes: 50, time_limit: Some(0.01), ..config };
+    let out = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
+    assert_eq!(out.stop, StopReason::TimeLimit);
+    let first = &out.history[0];
+    assert!(first.evaluated >= 1 && first.evaluated < 3000, "{}", first.evaluated);
+    let whole = ControllerConfig { samples: first.evaluated, time_limit: None, max_iterations: Some(1), ..config };
+    let all = optimize_controller(Valued::Sampled(&w), &whole, |_| Flow::Continue).unwrap();
+    assert_eq!(all.history[0].record.mean.to_bits(), first.record.mean.to_bits());
 }
 
 #[test]
@@ -289,7 +308,7 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
     let staged = ControllerConfig {
         decisions: ceworld::ce::controller::Decisions::Mealy,
         memoryless_patience: 2,
-        max_iterations: Some(16),
+        max_iterations: Some(24),
         ..config.clone()
     };
     let cases = [

@@ -373,6 +373,8 @@ fn controllers_are_valued_and_searched_as_the_engine_would_whatever_the_batch_an
         let v = run_with(&RING, &policy, &mut stream(0, Purpose::Evaluate, 0, 0), |_, _, _, _, _| {});
         assert!(values.iter().all(|&x| x == v), "{values:?} vs {v}");
     }
+    // 400 controllers: valued in groups of about 1024 episodes, whole batches each.
+    let search = |threads| ceworld::ControllerConfig { samples: 400, ..search(threads) };
     let reference = optimize_controller(Valued::Sampled(&RING), &search(2), |_| Flow::Continue).unwrap();
     for (batch, threads) in [(1, 1), (4, 2), (6, 1), (7, 2), (1000, 2)] {
         let outside = Lockstep::new(RingBatch::new(batch)).unwrap();

@@ -15,7 +15,7 @@ pub(crate) struct ControllerArgs {
     #[command(flatten)]
     config: ControllerConfig,
     /// Controllers drawn per iteration (N).
-    /// [default: 2000 on exact values, 1000 on sampled ones]
+    /// [default: 2000 on exact values, 200 on sampled ones]
     #[arg(long)]
     samples: Option<usize>,
     /// Selective rate: the best ceil(rho*N) controllers refit the laws; 0 < rho < 1 [default:
@@ -37,8 +37,8 @@ pub(crate) struct ControllerArgs {
     decisions: Option<Decisions>,
     /// Mealy decisions without a model start: the laws start with one node (a memoryless
     /// policy) and widen to --nodes around the best after this many iterations without a
-    /// better controller; 0: no memoryless stage. [default: 0 on exact values, 10 on sampled
-    /// ones]
+    /// better controller (three times as many in all at most); 0: no memoryless stage.
+    /// [default: 0 on exact values, 10 on sampled ones]
     #[arg(long)]
     memoryless_patience: Option<usize>,
     #[command(flatten)]
@@ -82,7 +82,7 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
         }
         (None, _) => format!("exact value at the horizon {:.6}", outcome.value),
     };
-    if config.restarts > 1 {
+    if outcome.run_values.len() > 1 {
         let values: Vec<String> = outcome.run_values.iter().map(|v| format!("{v:.6}")).collect();
         let on = if outcome.evaluation.is_some() { "on the selection episodes" } else { "exact" };
         println!(

@@ -91,7 +91,8 @@ impl Resumable for ControllerSearch {
     type Finished = FinishedSearch;
 
     fn restarts(settings: &SearchSettings) -> usize {
-        settings.config.restarts
+        // With `restarts` 0, as many as a time limit allows: the limit may differ on resume.
+        if settings.config.restarts == 0 { super::MAX_RESTARTS } else { settings.config.restarts }
     }
 
     fn check_run(settings: &SearchSettings, run: &SearchState) -> Option<String> {

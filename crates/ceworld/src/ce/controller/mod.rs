@@ -13,11 +13,10 @@
 pub mod checkpoint;
 pub mod config;
 mod laws;
+mod outcome;
 pub mod value;
 
 use rayon::prelude::*;
-use serde::Serialize;
-use serde_json::json;
 
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::StopReason;
@@ -27,112 +26,19 @@ use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::evaluate::{Evaluation, closing_rewards};
 use crate::pointbased::{Budget, PointBased};
+use crate::policy::Layout;
 pub use crate::policy::controller::Controller;
-use crate::policy::file::PolicyFile;
-use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream};
-use crate::settings::Settings;
 use crate::world::pomdp::PomdpWorld;
 
 pub use config::{ControllerConfig, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
 use laws::Laws;
+pub use outcome::{ControllerIteration, ControllerOutcome};
 use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
 
 use crate::ce::resume::{Checkpointing, Saver};
 use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
-
-/// One iteration of a controller search: the statistics every optimiser records
-/// ([`IterationRecord`], with a controller's value in place of an episode's reward) and the
-/// search's own.
-#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
-pub struct ControllerIteration {
-    /// The run (0-based; see `restarts`).
-    pub restart: usize,
-    /// The iteration's statistics: `iteration` within the run, the `mean`, `best`, elite
-    /// threshold and elite mean of its controllers' values (exact, or over their `K` episodes),
-    /// `successful` when it counted as progress (a better controller so far or a higher elite
-    /// threshold: it reset the patience count), `seconds` since the start.
-    #[serde(flatten)]
-    pub record: IterationRecord,
-    /// The best value so far in this run: exact, or on the selection episodes.
-    pub best_so_far: f64,
-    /// Mean over the laws' rows of their largest probability (1: every draw is the same controller).
-    pub concentration: f64,
-    /// Controllers evaluated (fewer than `samples` when the time limit cut the iteration).
-    pub evaluated: usize,
-    /// Whether the laws were mixed with the uniform law after this iteration (an escape).
-    pub injected: bool,
-    /// Whether the laws grew a node after this iteration (an escape).
-    #[serde(default)]
-    pub grown: bool,
-    /// Whether the memoryless stage ended after this iteration: the laws widened from one node
-    /// to `nodes` around the best memoryless policy.
-    #[serde(default)]
-    pub widened: bool,
-}
-
-/// The outcome of a controller search.
-#[derive(Clone, Debug)]
-pub struct ControllerOutcome {
-    /// The best controller found, as a two-level one-hot HHMM.
-    pub policy: Hhmm,
-    /// Its value: exact (infinite-horizon for `γ < 1`, else at the world's horizon), or on
-    /// sampled values the mean of `evaluation`'s fresh episodes.
-    pub value: f64,
-    /// How the controllers were valued.
-    pub kind: ValueKind,
-    /// Sampled values: the returned controller on `eval_episodes` fresh episodes (streams
-    /// `(seed, Evaluate, 0, k)`, as `evaluate` gives for its policy).
-    pub evaluation: Option<Evaluation>,
-    /// The iteration that drew it, within its run.
-    pub best_iteration: usize,
-    /// The run that found it.
-    pub restart: usize,
-    /// The best value of each run, in order (exact, or on the selection episodes).
-    pub run_values: Vec<f64>,
-    /// One record per iteration, run after run.
-    pub history: Vec<ControllerIteration>,
-    /// Why the last run stopped.
-    pub stop: StopReason,
-    /// Seconds taken.
-    pub seconds: f64,
-    /// Why the last checkpoint that could not be written failed, if one failed (the search
-    /// went on).
-    pub checkpoint_error: Option<String>,
-}
-
-impl ControllerOutcome {
-    /// The policy file of the best controller (model §6), with its provenance.
-    pub fn to_file(&self, world: &dyn Episodes, config: &ControllerConfig) -> PolicyFile {
-        let mut map = config.provenance();
-        for (key, value) in [
-            ("method", json!("controller-ce")),
-            ("value", json!(self.kind.as_str())),
-            ("restart", json!(self.restart)),
-            ("run_values", json!(self.run_values)),
-            ("iterations", json!(self.history.len())),
-            ("best_iteration", json!(self.best_iteration)),
-            ("stop", json!(self.stop.as_str())),
-            ("interrupted", json!(self.stop == StopReason::Interrupted)),
-            ("version", json!(crate::VERSION)),
-        ] {
-            map.insert(key.into(), value);
-        }
-        match &self.evaluation {
-            None => {
-                map.insert("exact_value".into(), json!(self.value));
-            }
-            Some(e) => {
-                map.insert("evaluation_mean".into(), json!(e.mean));
-                map.insert("evaluation_std_error".into(), json!(e.std_error));
-                map.insert("evaluation_episodes".into(), json!(e.episodes));
-            }
-        }
-        let provenance = serde_json::Value::Object(map);
-        PolicyFile { policy: self.policy.clone(), world: world.description(), provenance }
-    }
-}
 
 /// Searches deterministic `config.nodes`-node controllers of `world` by the cross-entropy method
 /// (module docs), `config.restarts` times; `observe` sees every iteration of every run and may
@@ -189,13 +95,14 @@ pub fn optimize_controller_with(
         Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
     let seen = Seen::new(most, y1);
-    let search = Search { config, values, seen, start, y1, n_actions, pool };
-    let (mut interrupted, mut stopped) = (None, false);
-    while saver.state.restart < config.restarts {
+    let search = Search { config, values, seen, bar: std::sync::OnceLock::new(), start, y1, n_actions, pool };
+    let (mut interrupted, mut stopped, mut out_of_time) = (None, false, false);
+    while saver.state.restart < config.runs() {
         let restart = saver.state.restart;
         let resume = saver.state.run.take();
         // A later run starts only while time is left (the first always runs).
         if restart > 0 && resume.is_none() && config.time_limit.is_some_and(|t| saver.seconds() >= t) {
+            out_of_time = true;
             break;
         }
         let run = match search.run(restart_seed(config.seed, restart), restart, resume, &mut saver, &mut observe) {
@@ -217,7 +124,8 @@ pub fn optimize_controller_with(
         saver.state.finished.push(run);
         saver.state.restart += 1;
         saver.save(true);
-        if stop == StopReason::TimeLimit {
+        // Runs until the time limit end with the target too.
+        if stop == StopReason::TimeLimit || (config.restarts == 0 && stop == StopReason::Target) {
             break;
         }
     }
@@ -234,7 +142,11 @@ pub fn optimize_controller_with(
         restart: best,
         run_values: runs.iter().map(|r| r.value).collect(),
         history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
-        stop: if stopped { StopReason::Interrupted } else { runs.last().expect("at least one run").stop },
+        stop: match (stopped, out_of_time) {
+            (true, _) => StopReason::Interrupted,
+            (false, true) => StopReason::TimeLimit,
+            (false, false) => runs.last().expect("at least one run").stop,
+        },
         seconds: 0.0,
         checkpoint_error: None,
     };
@@ -275,6 +187,14 @@ fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<Controll
     (values.value(&built, &mut scratch) > blind + config.tolerance).then_some(built)
 }
 
+/// Controllers valued at once on sampled values with `episodes` each, where a world runs
+/// `slice` episodes together: whole batches of about `GROUP_EPISODES` episodes.
+fn group_size(slice: usize, episodes: usize) -> usize {
+    const GROUP_EPISODES: usize = 1024;
+    let per_batch = if episodes <= slice { (slice / episodes).max(1) } else { 1 };
+    per_batch * GROUP_EPISODES.div_ceil(per_batch * episodes).max(1)
+}
+
 /// How a search values its controllers.
 enum Values<'a> {
     Exact(ControllerValue<'a>),
@@ -286,8 +206,10 @@ enum Values<'a> {
 struct Search<'a> {
     config: &'a ControllerConfig,
     values: Values<'a>,
-    /// Exact values already computed.
+    /// Values already computed: exact, or on the selection episodes.
     seen: Seen,
+    /// What a memoryless stage's best must beat ([`Search::blind_bar`]), once computed.
+    bar: std::sync::OnceLock<f64>,
     /// The controller built from the model, if any: the runs have its nodes, their laws start
     /// around it, and it is the first controller of the first iteration.
     start: Option<Controller>,
@@ -340,24 +262,44 @@ impl Search<'_> {
             Values::Sampled(world) => {
                 let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
                 let k = self.config.episodes;
-                let mut values = vec![0.0; samples * k];
                 let streams = Streams { seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
-                world.run_controllers(&controllers, streams, k, &mut values)?;
-                let means = values.chunks(k).map(|v| mean(v.iter().copied()));
-                Ok(means.zip(controllers).map(Some).collect())
+                // In groups of whole batches, so that the time limit can cut the iteration
+                // between two (the first always counts) and the values are the same as in one.
+                let group = if world.remote().is_some() { samples } else { group_size(world.slice(), k) };
+                let mut valued = Vec::with_capacity(samples);
+                for (g, chunk) in controllers.chunks(group).enumerate() {
+                    if g > 0 && over_time() {
+                        break;
+                    }
+                    let mut values = vec![0.0; chunk.len() * k];
+                    world.run_controllers(chunk, streams, k, &mut values)?;
+                    let means = values.chunks(k).map(|v| mean(v.iter().copied()));
+                    valued.extend(means.zip(chunk.iter().cloned()).map(Some));
+                }
+                valued.resize(samples, None);
+                Ok(valued)
             }
         })
     }
 
     /// The mean value of each of `controllers` on the selection episodes (shared by every
-    /// iteration and run: streams `(seed, Select, 0, k)`).
+    /// iteration and run: streams `(seed, Select, 0, k)`). A controller scored before is not run
+    /// again: its score depends on it alone.
     fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
         let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
         let m = self.config.select_episodes;
-        let mut values = vec![0.0; controllers.len() * m];
+        let scores: Vec<Option<f64>> = controllers.iter().map(|c| self.seen.get(c)).collect();
+        let new: Vec<Controller> =
+            controllers.iter().zip(&scores).filter(|(_, s)| s.is_none()).map(|(c, _)| c.clone()).collect();
+        let mut values = vec![0.0; new.len() * m];
         let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
-        self.pool.install(|| world.run_controllers(controllers, streams, m, &mut values))?;
-        Ok(values.chunks(m).map(|v| mean(v.iter().copied())).collect())
+        self.pool.install(|| world.run_controllers(&new, streams, m, &mut values))?;
+        let mut fresh = new.iter().zip(values.chunks(m)).map(|(c, v)| {
+            let score = mean(v.iter().copied());
+            self.seen.keep(c, score);
+            score
+        });
+        Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
     }
 
     /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
@@ -397,6 +339,42 @@ impl Search<'_> {
         } else {
             (false, false)
         }
+    }
+
+    /// In a memoryless stage, what its best policy must beat to start the memory around it: every
+    /// blind policy ("always `a`") on exact values by the tolerance, on sampled ones by three
+    /// standard errors of its mean on the selection episodes (the best memoryless score is the
+    /// most of many, biased up). The same for every run of the search, computed once.
+    fn blind_bar(&self, state: &SearchState) -> Result<Option<f64>> {
+        if state.laws.nodes() > 1 || self.start.is_some() || self.config.memoryless_patience == 0 {
+            return Ok(None);
+        }
+        if let Some(&bar) = self.bar.get() {
+            return Ok(Some(bar));
+        }
+        let y1 = self.y1;
+        let blind: Vec<Controller> =
+            (0..self.n_actions as u32).map(|a| Controller::mealy(vec![a; y1], vec![0; y1], y1)).collect();
+        let tolerance = self.config.tolerance;
+        let bars: Vec<f64> = match &self.values {
+            Values::Exact(exact) => {
+                let mut scratch = Scratch::default();
+                blind.iter().map(|c| exact.value(c, &mut scratch) + tolerance).collect()
+            }
+            Values::ExactElsewhere(_, remote) => {
+                remote.exact_values(&blind, tolerance)?.into_iter().map(|v| v + tolerance).collect()
+            }
+            Values::Sampled(world) => {
+                let m = self.config.select_episodes;
+                let mut values = vec![0.0; blind.len() * m];
+                let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
+                self.pool.install(|| world.run_controllers(&blind, streams, m, &mut values))?;
+                let bar = |e: Evaluation| e.mean + 3.0 * if e.std_error.is_finite() { e.std_error } else { 0.0 };
+                values.chunks(m).map(Evaluation::from_rewards).map(bar).collect()
+            }
+        };
+        let bar = bars.into_iter().fold(f64::NEG_INFINITY, f64::max);
+        Ok(Some(*self.bar.get_or_init(|| bar)))
     }
 
     /// The state of a run that has not started: the first laws.
@@ -447,10 +425,11 @@ impl Search<'_> {
                     std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
                 });
                 let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
-                let stop = match self.value(&state.laws, seed, iteration, &over_time) {
-                    Ok(drawn) => {
+                let valued = self.value(&state.laws, seed, iteration, &over_time);
+                let stop = match valued.and_then(|drawn| Ok((self.blind_bar(&state)?, drawn))) {
+                    Ok((bar, drawn)) => {
                         let cut = drawn.cut;
-                        let record = self.learn(&mut state, &drawn, restart, saver.seconds());
+                        let record = self.learn(&mut state, &drawn, restart, saver.seconds(), bar);
                         let flow = observe(&record);
                         let (value, seconds) = (record.best_so_far, record.record.seconds);
                         state.history.push(record);
@@ -497,7 +476,14 @@ impl Search<'_> {
 
     /// Learns from an iteration's controllers: the best so far, progress, the laws refitted to
     /// the elite, an escape where patience ran out; the iteration's record.
-    fn learn(&self, state: &mut SearchState, drawn: &Draws, restart: usize, seconds: f64) -> ControllerIteration {
+    fn learn(
+        &self,
+        state: &mut SearchState,
+        drawn: &Draws,
+        restart: usize,
+        seconds: f64,
+        bar: Option<f64>,
+    ) -> ControllerIteration {
         let config = self.config;
         let Draws { iteration, drawn, cut, order, candidate } = drawn;
         let elite_size = config.elite_count().min(drawn.len());
@@ -532,15 +518,23 @@ impl Search<'_> {
         }
         // Patience run out with escapes left: mix in the uniform law, or else grow a node around
         // the best controller, and go on.
-        // The memoryless stage over: the laws widen to `nodes` nodes around its best.
+        // The memoryless stage over: the laws widen to `nodes` nodes around its best. On sampled
+        // values a memoryless policy better by noise alone turns up again and again, so the
+        // stage lasts three times its patience at most.
         let widened = state.laws.nodes() == 1
             && config.nodes > 1
             && self.start.is_none()
             && config.memoryless_patience > 0
-            && since_better >= config.memoryless_patience;
+            && (since_better >= config.memoryless_patience || iteration + 1 >= 3 * config.memoryless_patience);
         if widened {
-            let best = &state.best.as_ref().expect("a best controller after an iteration").1;
-            state.laws = Laws::widened(best, config.nodes, self.n_actions, config.template, config.template_weight);
+            // Around the memoryless policy where it beats every blind one, else from the template.
+            let (value, best, _) = state.best.as_ref().expect("a best controller after an iteration");
+            let (n, a, template, w) = (config.nodes, self.n_actions, config.template, config.template_weight);
+            state.laws = if bar.is_none_or(|bar| *value > bar) {
+                Laws::widened(best, n, a, template, w)
+            } else {
+                Laws::start(n, a, self.y1, true, template, w)
+            };
         }
         let (injected, grown) = if !widened && state.since_progress >= config.patience {
             let from = state.best.as_ref().map(|b| &b.1).expect("a best controller after an iteration");

@@ -213,9 +213,10 @@ impl<'a> ControllerValue<'a> {
     }
 }
 
-/// The exact values of the controllers a search has met, so that a controller drawn again (as
-/// the laws concentrate, most are) is valued once. A value depends on the controller alone, so
-/// the search's results do not depend on what is kept; at most [`Seen::BYTES`] of controllers
+/// The values of the controllers a search has met (exact values, or scores on the fixed
+/// selection episodes), so that a controller drawn again (as the laws concentrate, most are) is
+/// valued once. Such a value depends on the controller alone, so the search's results do not
+/// depend on what is kept; at most [`Seen::BYTES`] of controllers
 /// are, the whole store cleared when full.
 pub struct Seen {
     values: std::sync::Mutex<std::collections::HashMap<Controller, f64>>,
@@ -228,22 +229,36 @@ impl Seen {
 
     /// A store for controllers of at most `nodes` nodes on `observations` observations.
     pub fn new(nodes: usize, observations: usize) -> Seen {
-        let bytes = (nodes * (observations + 1) * 4 + 64).max(1);
+        // Successors, and a Mealy machine's decisions.
+        let bytes = (nodes * (2 * observations + 1) * 4 + 64).max(1);
         Seen { values: std::sync::Mutex::default(), most: (Self::BYTES / bytes).max(1) }
     }
 
     /// The value of `c`: the one kept, or `value()` (then kept).
     pub fn value(&self, c: &Controller, value: impl FnOnce() -> f64) -> f64 {
-        let lock = || self.values.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some(&v) = lock().get(c) {
+        if let Some(v) = self.get(c) {
             return v;
         }
         let v = value();
-        let mut values = lock();
+        self.keep(c, v);
+        v
+    }
+
+    /// The value kept for `c`, if any.
+    pub fn get(&self, c: &Controller) -> Option<f64> {
+        self.lock().get(c).copied()
+    }
+
+    /// Keeps `v` as the value of `c`.
+    pub fn keep(&self, c: &Controller, v: f64) {
+        let mut values = self.lock();
         if values.len() >= self.most {
             values.clear();
         }
         values.insert(c.clone(), v);
-        v
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, std::collections::HashMap<Controller, f64>> {
+        self.values.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 }

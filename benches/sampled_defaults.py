@@ -1,0 +1,70 @@
+"""The controller search on sampled values with its defaults (model §8), or with other settings,
+on memory tasks of the engine, numpy and POPGym (through Gymnasium), at a fixed time each.
+
+    python3 benches/sampled_defaults.py [--tasks t-maze repeat-first ...] [--seconds 60]
+        [--settings '{"samples": 1000, "episodes": 100, "select_episodes": 2000}']
+
+For each task it runs ``optimize_controller(world, time_limit=seconds, threads=1, **settings)``
+and prints a Markdown table: the value on fresh episodes, iterations, the iteration whose
+memoryless stage ended (``-`` where none did), the nodes of the policy file and the seconds
+taken (the final evaluation included). POPGym tasks need ``pip install popgym``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+from typing import Any
+
+import cehmm
+from cehmm.memory_tasks import RepeatFirst, RepeatPrevious, TMaze
+
+
+def _popgym(name: str) -> Callable[[], Any]:
+    def make() -> Any:
+        import gymnasium as gym
+        import popgym  # noqa: F401  (registers its environments)
+
+        return cehmm.PythonWorld(gym.make(f"popgym-{name}-v0"), horizon=60)
+
+    return make
+
+
+TASKS: dict[str, Callable[[], Any]] = {
+    "t-maze": lambda: TMaze(corridor=10),
+    "repeat-first": RepeatFirst,
+    "repeat-previous": RepeatPrevious,
+    "tracking-1": lambda: cehmm.TargetTracking(case=1),
+    "tracking-2": lambda: cehmm.TargetTracking(case=2),
+    "tracking-3": lambda: cehmm.TargetTracking(case=3),
+    "HigherLowerEasy": _popgym("HigherLowerEasy"),
+    "RepeatFirstEasy": _popgym("RepeatFirstEasy"),
+    "RepeatPreviousEasy": _popgym("RepeatPreviousEasy"),
+}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--tasks", nargs="+", default=list(TASKS)[:6], choices=list(TASKS))
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--settings", type=json.loads, default={}, help="more settings, as a JSON object")
+    args = parser.parse_args()
+    print(f"settings: defaults, {args.settings}; {args.seconds:g} s each, one thread")
+    print("| task | value | iterations | stage ended | nodes | seconds |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for name in args.tasks:
+        start = time.perf_counter()
+        result = cehmm.optimize_controller(
+            TASKS[name](), time_limit=args.seconds, threads=1, progress=False, **args.settings
+        )
+        seconds = time.perf_counter() - start
+        history = result.history
+        ended = [i for i, w in enumerate(history["widened"]) if w]
+        row = [name, f"{result.value:.4f}", len(history["mean"]), ended[0] if ended else "-"]
+        print("| " + " | ".join(str(x) for x in [*row, result.policy.levels[0], f"{seconds:.1f}"]) + " |")
+
+
+if __name__ == "__main__":
+    main()

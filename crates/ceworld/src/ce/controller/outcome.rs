@@ -1,0 +1,107 @@
+//! What a controller search gives (model §8): a record per iteration and the outcome, with its
+//! policy file.
+
+use serde::Serialize;
+use serde_json::json;
+
+use crate::ce::controller::{ControllerConfig, ValueKind};
+use crate::ce::record::IterationRecord;
+use crate::ce::stopping::StopReason;
+use crate::episodes::Episodes;
+use crate::evaluate::Evaluation;
+use crate::policy::Hhmm;
+use crate::policy::file::PolicyFile;
+use crate::settings::Settings;
+
+/// One iteration of a controller search: the statistics every optimiser records
+/// ([`IterationRecord`], with a controller's value in place of an episode's reward) and the
+/// search's own.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct ControllerIteration {
+    /// The run (0-based; see `restarts`).
+    pub restart: usize,
+    /// The iteration's statistics: `iteration` within the run, the `mean`, `best`, elite
+    /// threshold and elite mean of its controllers' values (exact, or over their `K` episodes),
+    /// `successful` when it counted as progress (a better controller so far or a higher elite
+    /// threshold: it reset the patience count), `seconds` since the start.
+    #[serde(flatten)]
+    pub record: IterationRecord,
+    /// The best value so far in this run: exact, or on the selection episodes.
+    pub best_so_far: f64,
+    /// Mean over the laws' rows of their largest probability (1: every draw is the same controller).
+    pub concentration: f64,
+    /// Controllers evaluated (fewer than `samples` when the time limit cut the iteration).
+    pub evaluated: usize,
+    /// Whether the laws were mixed with the uniform law after this iteration (an escape).
+    pub injected: bool,
+    /// Whether the laws grew a node after this iteration (an escape).
+    #[serde(default)]
+    pub grown: bool,
+    /// Whether the memoryless stage ended after this iteration: the laws widened from one node
+    /// to `nodes` around the best memoryless policy.
+    #[serde(default)]
+    pub widened: bool,
+}
+
+/// The outcome of a controller search.
+#[derive(Clone, Debug)]
+pub struct ControllerOutcome {
+    /// The best controller found, as a two-level one-hot HHMM.
+    pub policy: Hhmm,
+    /// Its value: exact (infinite-horizon for `γ < 1`, else at the world's horizon), or on
+    /// sampled values the mean of `evaluation`'s fresh episodes.
+    pub value: f64,
+    /// How the controllers were valued.
+    pub kind: ValueKind,
+    /// Sampled values: the returned controller on `eval_episodes` fresh episodes (streams
+    /// `(seed, Evaluate, 0, k)`, as `evaluate` gives for its policy).
+    pub evaluation: Option<Evaluation>,
+    /// The iteration that drew it, within its run.
+    pub best_iteration: usize,
+    /// The run that found it.
+    pub restart: usize,
+    /// The best value of each run, in order (exact, or on the selection episodes).
+    pub run_values: Vec<f64>,
+    /// One record per iteration, run after run.
+    pub history: Vec<ControllerIteration>,
+    /// Why the search stopped: why its last run stopped, or the time limit where it left no
+    /// time for another run.
+    pub stop: StopReason,
+    /// Seconds taken.
+    pub seconds: f64,
+    /// Why the last checkpoint that could not be written failed, if one failed (the search
+    /// went on).
+    pub checkpoint_error: Option<String>,
+}
+
+impl ControllerOutcome {
+    /// The policy file of the best controller (model §6), with its provenance.
+    pub fn to_file(&self, world: &dyn Episodes, config: &ControllerConfig) -> PolicyFile {
+        let mut map = config.provenance();
+        for (key, value) in [
+            ("method", json!("controller-ce")),
+            ("value", json!(self.kind.as_str())),
+            ("restart", json!(self.restart)),
+            ("run_values", json!(self.run_values)),
+            ("iterations", json!(self.history.len())),
+            ("best_iteration", json!(self.best_iteration)),
+            ("stop", json!(self.stop.as_str())),
+            ("interrupted", json!(self.stop == StopReason::Interrupted)),
+            ("version", json!(crate::VERSION)),
+        ] {
+            map.insert(key.into(), value);
+        }
+        match &self.evaluation {
+            None => {
+                map.insert("exact_value".into(), json!(self.value));
+            }
+            Some(e) => {
+                map.insert("evaluation_mean".into(), json!(e.mean));
+                map.insert("evaluation_std_error".into(), json!(e.std_error));
+                map.insert("evaluation_episodes".into(), json!(e.episodes));
+            }
+        }
+        let provenance = serde_json::Value::Object(map);
+        PolicyFile { policy: self.policy.clone(), world: world.description(), provenance }
+    }
+}
