@@ -83,7 +83,12 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
         (None, _) => format!("exact value at the horizon {:.6}", outcome.value),
     };
     if outcome.run_values.len() > 1 {
-        let values: Vec<String> = outcome.run_values.iter().map(|v| format!("{v:.6}")).collect();
+        // The first runs' values (all of them are in the policy file's provenance).
+        const SHOWN: usize = 10;
+        let mut values: Vec<String> = outcome.run_values.iter().take(SHOWN).map(|v| format!("{v:.6}")).collect();
+        if outcome.run_values.len() > SHOWN {
+            values.push("...".into());
+        }
         let on = if outcome.evaluation.is_some() { "on the selection episodes" } else { "exact" };
         println!(
             "best of {} runs: run {} (values {on}: {})",
