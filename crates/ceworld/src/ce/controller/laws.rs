@@ -23,23 +23,16 @@ pub struct Laws {
 
 impl Laws {
     pub(super) fn uniform(n: usize, n_actions: usize, y1: usize, mealy: bool) -> Laws {
-        let rows = if mealy { n * y1 } else { n };
-        Laws {
-            n,
-            n_actions,
-            y1,
-            mealy,
-            act: vec![1.0 / n_actions as f64; rows * n_actions],
-            next: vec![1.0 / n as f64; n * y1 * n],
-        }
+        let mut laws = Laws::zero(n, n_actions, y1, mealy);
+        laws.act.fill(1.0 / n_actions as f64);
+        laws.next.fill(1.0 / n as f64);
+        laws
     }
 
-    /// One-hot laws on `c`'s choices (all 0 before they are set).
+    /// Laws of that shape with every probability 0, for one-hot laws to be set on.
     fn zero(n: usize, n_actions: usize, y1: usize, mealy: bool) -> Laws {
-        let mut laws = Laws::uniform(n, n_actions, y1, mealy);
-        laws.act.fill(0.0);
-        laws.next.fill(0.0);
-        laws
+        let rows = if mealy { n * y1 } else { n };
+        Laws { n, n_actions, y1, mealy, act: vec![0.0; rows * n_actions], next: vec![0.0; n * y1 * n] }
     }
 
     /// The uniform laws with `weight` of each successor law moved onto `template`'s successors.

@@ -499,12 +499,13 @@ impl Search<'_> {
             progress = true;
         }
         state.since_progress = if progress { 0 } else { state.since_progress + 1 };
-        let best_now = state.best.as_ref().map(|b| b.0);
-        // Iterations in a row without a better controller (this one included).
-        let since_better = if state.best.as_ref().is_some_and(|b| b.2 == *iteration) {
-            0
-        } else {
-            state.history.iter().rev().take_while(|r| Some(r.best_so_far) == best_now).count()
+        // Iterations in a row without a better controller (this one included), read from the
+        // history where a memoryless stage asks.
+        let since_better = |state: &SearchState| match &state.best {
+            Some((_, _, found)) if found == iteration => 0,
+            best => {
+                state.history.iter().rev().take_while(|r| Some(r.best_so_far) == best.as_ref().map(|b| b.0)).count()
+            }
         };
         // Ties at the threshold are left out when some controllers beat it: a plateau of equal
         // values (e.g. tiger's "always listen") would otherwise fill the elite and hold the laws
@@ -525,7 +526,7 @@ impl Search<'_> {
             && config.nodes > 1
             && self.start.is_none()
             && config.memoryless_patience > 0
-            && (since_better >= config.memoryless_patience || iteration + 1 >= 3 * config.memoryless_patience);
+            && (iteration + 1 >= 3 * config.memoryless_patience || since_better(state) >= config.memoryless_patience);
         if widened {
             // Around the memoryless policy where it beats every blind one, else from the template.
             let (value, best, _) = state.best.as_ref().expect("a best controller after an iteration");
