@@ -6,8 +6,9 @@ on memory tasks of the engine, numpy and POPGym (through Gymnasium), at a fixed 
 
 For each task it runs ``optimize_controller(world, time_limit=seconds, threads=1, **settings)``
 and prints a Markdown table: the value on fresh episodes, iterations, the iteration whose
-memoryless stage ended (``-`` where none did), the nodes of the policy file and the seconds
-taken (the final evaluation included). POPGym tasks need ``pip install popgym``.
+memoryless stage ended (``-`` where none did), the nodes of the policy file, the seconds
+taken and, on POPGym tasks, the environment steps taken (both with the final evaluation, its
+``eval_episodes`` fresh episodes). POPGym tasks need ``pip install popgym``.
 """
 
 from __future__ import annotations
@@ -21,13 +22,20 @@ from typing import Any
 import cehmm
 from cehmm.memory_tasks import RepeatFirst, RepeatPrevious, TMaze
 
+STEPS = [0]
+
 
 def _popgym(name: str) -> Callable[[], Any]:
     def make() -> Any:
         import gymnasium as gym
         import popgym  # noqa: F401  (registers its environments)
 
-        return cehmm.PythonWorld(gym.make(f"popgym-{name}-v0"), horizon=60)
+        class Counted(gym.Wrapper):  # type: ignore[misc]
+            def step(self, action: Any) -> Any:
+                STEPS[0] += 1
+                return self.env.step(action)
+
+        return cehmm.PythonWorld(Counted(gym.make(f"popgym-{name}-v0")), horizon=60)
 
     return make
 
@@ -52,9 +60,10 @@ def main() -> None:
     parser.add_argument("--settings", type=json.loads, default={}, help="more settings, as a JSON object")
     args = parser.parse_args()
     print(f"settings: defaults, {args.settings}; {args.seconds:g} s each, one thread")
-    print("| task | value | iterations | stage ended | nodes | seconds |")
-    print("|---|---:|---:|---:|---:|---:|")
+    print("| task | value | iterations | stage ended | nodes | seconds | env steps |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for name in args.tasks:
+        STEPS[0] = 0
         start = time.perf_counter()
         result = cehmm.optimize_controller(
             TASKS[name](), time_limit=args.seconds, threads=1, progress=False, **args.settings
@@ -63,7 +72,8 @@ def main() -> None:
         history = result.history
         ended = [i for i, w in enumerate(history["widened"]) if w]
         row = [name, f"{result.value:.4f}", len(history["mean"]), ended[0] if ended else "-"]
-        print("| " + " | ".join(str(x) for x in [*row, result.policy.levels[0], f"{seconds:.1f}"]) + " |")
+        steps = f"{STEPS[0]:,}" if STEPS[0] else "-"
+        print("| " + " | ".join(str(x) for x in [*row, result.policy.levels[0], f"{seconds:.1f}", steps]) + " |")
 
 
 if __name__ == "__main__":

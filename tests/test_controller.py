@@ -138,6 +138,7 @@ def test_the_memoryless_stage_needs_mealy_decisions() -> None:
         RepeatFirst(),
         decisions="moore",
         memoryless_patience=0,
+        memory="nodes",
         samples=20,
         episodes=4,
         max_iterations=2,
@@ -225,6 +226,30 @@ def test_repeat_previous_pays_only_the_memory_of_the_last_cards() -> None:
     # A policy that names the current card is right by chance only (k = 4 looks 3 cards back).
     policy = cehmm.optimize_controller(world, nodes=1, samples=4, episodes=1, max_iterations=1, progress=False)
     assert -0.6 < policy.value < -0.4
+
+
+def test_a_shift_register_of_registers_holds_the_last_cards() -> None:
+    # k = 3: the suit dealt two cards before the current one, held by 2 registers of 4 (the
+    # last two suits) that start as a shift register; the decision reads the older.
+    world = RepeatPrevious(k=3)
+    result = cehmm.optimize_controller(
+        world, memory="registers", registers=2, template="window", target=1.0, seed=1, progress=False
+    )
+    assert result.value == pytest.approx(world.optimum)
+    assert result.policy.provenance["memory"] == "registers"
+    # Its Moore machine: a start node and (node reached, suit) pairs of the 16 register values.
+    assert result.policy.levels[0] <= 1 + 16 * 4
+
+
+def test_registers_are_refused_where_they_do_not_fit() -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"registers.*1 of register_size 4"):
+        cehmm.optimize_controller(RepeatPrevious(), memory="registers", registers=1, progress=False)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"memory \"registers\" with decisions \"moore\""):
+        cehmm.optimize_controller(
+            RepeatPrevious(), memory="registers", decisions="moore", memoryless_patience=0, progress=False
+        )
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"memory.*\"alternate\""):
+        cehmm.optimize_controller(RepeatPrevious(), memory="factored", progress=False)
 
 
 def test_a_search_resumes_from_its_checkpoint(tmp_path: Path) -> None:

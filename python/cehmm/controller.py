@@ -112,6 +112,9 @@ def optimize_controller(
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     decisions: str | None = None,
     memoryless_patience: int | None = None,
+    memory: str | None = None,
+    registers: int = CONTROLLER_DEFAULTS["registers"],
+    register_size: int = CONTROLLER_DEFAULTS["register_size"],
     progress: bool = True,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
@@ -208,6 +211,17 @@ def optimize_controller(
             policy after this many iterations without a better controller (three times as
             many in all at most), so that memory only adds to it; 0: none (default 0 on exact
             values, 10 on sampled).
+        memory: the memory's layout where no model start is kept: ``"nodes"`` (``nodes`` flat
+            nodes), ``"registers"`` (factored: ``registers`` registers of ``register_size``
+            values, ``register_size ** registers`` nodes, each register moving on the
+            observation and the register before it, so that the laws grow as
+            ``registers · register_size³`` rather than ``nodes²``; Mealy decisions) or
+            ``"alternate"`` (runs take turns: flat nodes from ``template``, then registers from
+            the ``"window"`` template, a shift register of the last observations; the best run
+            is kept). Default ``"nodes"`` on exact values, ``"alternate"`` on sampled.
+        registers: registers of a factored memory, at least 2.
+        register_size: values of each register (the ``"window"`` template's first register
+            copies the observation modulo this), at least 2.
         progress: print a live progress line on stderr.
         checkpoint: a file where the whole state of the search (laws, best controller so far,
             history, finished restarts) is saved every ``checkpoint_every`` seconds and whenever
@@ -272,6 +286,9 @@ def optimize_controller(
                 template=template,
                 decisions=decisions,
                 memoryless_patience=memoryless_patience,
+                memory=memory,
+                registers=registers,
+                register_size=register_size,
             ),
             value=value,
             progress=progress,

@@ -209,7 +209,9 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
 #[test]
 fn bad_settings_are_named() {
     let w = world("tiger.95.POMDP", 10, None);
-    let cases: [(&str, ControllerConfig); 8] = [
+    let mealy = ceworld::ce::controller::Decisions::Mealy;
+    let registers = ceworld::ce::controller::Memory::Registers;
+    let cases: [(&str, ControllerConfig); 11] = [
         ("nodes", ControllerConfig { nodes: 0, ..Default::default() }),
         ("samples", ControllerConfig { samples: 0, ..Default::default() }),
         ("rho", ControllerConfig { rho: 1.0, ..Default::default() }),
@@ -219,6 +221,10 @@ fn bad_settings_are_named() {
         ("time_limit", ControllerConfig { time_limit: Some(-1.0), ..Default::default() }),
         // A memoryless stage of Moore machines would be a blind policy's.
         ("memoryless_patience", ControllerConfig { memoryless_patience: 3, ..Default::default() }),
+        // Registers hold Mealy decisions; one register is flat nodes; 4^9 nodes are too many.
+        ("memory", ControllerConfig { memory: registers, ..Default::default() }),
+        ("registers", ControllerConfig { memory: registers, decisions: mealy, registers: 1, ..Default::default() }),
+        ("registers", ControllerConfig { memory: registers, decisions: mealy, registers: 9, ..Default::default() }),
     ];
     for (name, config) in cases {
         match optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue) {
@@ -304,10 +310,14 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         growths: 1,
         ..ControllerConfig::default()
     };
-    // Mealy machines after a memoryless stage, the sampled defaults.
+    // Mealy machines after a memoryless stage, runs alternating between flat nodes and
+    // registers: the sampled defaults.
     let staged = ControllerConfig {
         decisions: ceworld::ce::controller::Decisions::Mealy,
         memoryless_patience: 2,
+        memory: ceworld::ce::controller::Memory::Alternate,
+        registers: 2,
+        register_size: 2,
         max_iterations: Some(24),
         ..config.clone()
     };

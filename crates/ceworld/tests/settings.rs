@@ -78,6 +78,9 @@ fn every_controller_setting_is_set_by_its_name() {
         template_weight: 0.75,
         decisions: ceworld::ce::controller::Decisions::Mealy,
         memoryless_patience: 4,
+        memory: ceworld::ce::controller::Memory::Registers,
+        registers: 5,
+        register_size: 6,
     });
     every_setting_is_set_by_its_name(&ControllerConfig::default());
 }

@@ -2,7 +2,7 @@
 //! on exact values (a tabular world) or sampled ones (model §8).
 
 use crate::Result;
-use crate::ce::controller::{ControllerConfig, Decisions, Template, ValueKind};
+use crate::ce::controller::{ControllerConfig, Decisions, Memory, Template, ValueKind};
 use crate::episodes::Episodes;
 use crate::run;
 
@@ -41,6 +41,13 @@ pub(crate) struct ControllerArgs {
     /// [default: 0 on exact values, 10 on sampled ones]
     #[arg(long)]
     memoryless_patience: Option<usize>,
+    /// The memory's layout: nodes (--nodes flat nodes), registers (--registers registers of
+    /// --register-size values, each moving on the observation and the register before it; Mealy
+    /// decisions) or alternate (runs take turns: flat nodes from --template, then registers as a
+    /// shift register of the last observations). [default: nodes on exact values, alternate on
+    /// sampled ones]
+    #[arg(long, value_parser = parse_memory, value_name = "nodes|registers|alternate")]
+    memory: Option<Memory>,
     #[command(flatten)]
     output: OutputArgs,
 }
@@ -59,6 +66,7 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
             template: args.template.unwrap_or(config.template),
             decisions: args.decisions.unwrap_or(config.decisions),
             memoryless_patience: args.memoryless_patience.unwrap_or(config.memoryless_patience),
+            memory: args.memory.unwrap_or(config.memory),
             ..args.config.clone()
         };
         Ok(())
@@ -118,4 +126,8 @@ fn parse_template(text: &str) -> std::result::Result<Template, String> {
 
 fn parse_decisions(text: &str) -> std::result::Result<Decisions, String> {
     Decisions::parse(text).map_err(|e| e.to_string())
+}
+
+fn parse_memory(text: &str) -> std::result::Result<Memory, String> {
+    Memory::parse(text).map_err(|e| e.to_string())
 }

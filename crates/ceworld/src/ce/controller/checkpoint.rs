@@ -34,6 +34,10 @@ pub struct SearchState {
     /// Growths taken (the laws have `nodes + growths` nodes).
     #[serde(default)]
     pub growths: usize,
+    /// The best memoryless policy of the memoryless stage, once it is over (its value and
+    /// itself): the later runs start their memory around it.
+    #[serde(default)]
+    pub memoryless: Option<(f64, Controller)>,
 }
 
 /// A run that is over.
@@ -49,6 +53,9 @@ pub struct FinishedSearch {
     pub history: Vec<ControllerIteration>,
     /// Why it stopped.
     pub stop: StopReason,
+    /// The best memoryless policy of its memoryless stage, if it had one.
+    #[serde(default)]
+    pub memoryless: Option<(f64, Controller)>,
 }
 
 /// What is inconsistent in one run's records, if anything (every record of the same run).
@@ -118,11 +125,11 @@ impl Resumable for ControllerSearch {
                     || run.history.last().is_some_and(|r| r.best_so_far != *value)
                 {
                     Some(format!("best controller of iteration {i} with value {value} (not its history's best so far)"))
-                } else if controller.nodes() > c.nodes.max(c.model_nodes) + run.growths {
+                } else if controller.nodes() > c.most_nodes().max(c.model_nodes + run.growths) {
                     Some(format!(
                         "a best controller of {} nodes (at most {})",
                         controller.nodes(),
-                        c.nodes.max(c.model_nodes) + run.growths
+                        c.most_nodes().max(c.model_nodes + run.growths)
                     ))
                 } else {
                     None

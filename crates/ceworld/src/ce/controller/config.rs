@@ -6,6 +6,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::settings::{Given, Setting, Settings};
 
+pub use super::memory::{Memory, Template};
+
 /// Most controllers of one iteration.
 pub const MAX_SAMPLES: usize = 10_000_000;
 /// Most runs of one search.
@@ -38,63 +40,6 @@ impl ValueKind {
             "exact" => Ok(ValueKind::Exact),
             "sampled" => Ok(ValueKind::Sampled),
             other => Err(Error::invalid("value", format!("{other:?} (expected \"exact\" or \"sampled\")"))),
-        }
-    }
-}
-
-/// The memory a search starts from (its first laws): every successor law is the uniform law
-/// with `template_weight` of it moved onto the template's successor.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Template {
-    /// No template: uniform laws.
-    Uniform,
-    /// A latch: every node but the start node stays where it is, whatever it observes, so
-    /// that what the first observations chose is held.
-    Hold,
-    /// A clock: node `q` moves on to `q + 1` (the last node stays), whatever it observes.
-    Clock,
-    /// The weight shared by `Hold` and `Clock` (the start node: all on `Clock`).
-    Mixed,
-    /// A window of the last observations (a shift register): after observation `y` node `q`
-    /// moves to `(q·Y + y) mod n`, so that with `n = Y^k` nodes a node is the last `k`
-    /// observations (frame stacking).
-    Window,
-}
-
-impl Template {
-    /// Every template, in the order of their names.
-    pub const ALL: [Template; 5] =
-        [Template::Uniform, Template::Hold, Template::Clock, Template::Mixed, Template::Window];
-
-    /// `"uniform"`, `"hold"`, `"clock"`, `"mixed"` or `"window"`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Template::Uniform => "uniform",
-            Template::Hold => "hold",
-            Template::Clock => "clock",
-            Template::Mixed => "mixed",
-            Template::Window => "window",
-        }
-    }
-
-    /// The template named `name`, or an error listing them.
-    pub fn parse(name: &str) -> Result<Template> {
-        Template::ALL.into_iter().find(|t| t.as_str() == name).ok_or_else(|| {
-            Error::invalid("template", format!("{name:?} (expected one of uniform, hold, clock, mixed, window)"))
-        })
-    }
-
-    /// The successors the template gives node `q` of `n` after observation `y` of `n_obs`.
-    pub(super) fn successors(self, q: usize, y: usize, n: usize, n_obs: usize) -> Vec<usize> {
-        let hold = (q > 0).then_some(q);
-        let clock = Some((q + 1).min(n - 1));
-        match self {
-            Template::Uniform => Vec::new(),
-            Template::Hold => hold.into_iter().collect(),
-            Template::Clock => clock.into_iter().collect(),
-            Template::Mixed => hold.into_iter().chain(clock).collect(),
-            Template::Window => vec![(q * n_obs + y) % n],
         }
     }
 }
@@ -134,7 +79,7 @@ impl Decisions {
 /// one home of each setting: its doc is the CLI's help (`ceworld controller --help`), its name
 /// the Python keyword ([`Settings::set`]) and the checkpoint's and policy file's key. The
 /// settings whose default depends on the kind of value (`samples`, `rho`, `template`,
-/// `decisions`, `memoryless_patience`) are the CLI's own options.
+/// `decisions`, `memoryless_patience`, `memory`) are the CLI's own options.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ControllerConfig {
@@ -238,6 +183,24 @@ pub struct ControllerConfig {
     #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().memoryless_patience))]
     #[serde(default)]
     pub memoryless_patience: usize,
+    /// The memory's layout (where no model start is kept): `nodes` (flat nodes), `registers`
+    /// (factored: `registers` registers of `register_size` values, Mealy decisions) or
+    /// `alternate` (runs take turns between the two).
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().memory))]
+    #[serde(default = "flat")]
+    pub memory: Memory,
+    /// Registers of a factored memory: register `i` moves on the observation and register
+    /// `i − 1` (cyclically), so that the laws grow as `registers·register_size³` rather than
+    /// `nodes²`; with the `window` template they start as a shift register of the last
+    /// `registers` observations.
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().registers))]
+    #[serde(default = "three")]
+    pub registers: usize,
+    /// Values of each register of a factored memory (the first register's `window` template
+    /// copies the observation modulo this).
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().register_size))]
+    #[serde(default = "four")]
+    pub register_size: usize,
 }
 
 /// The decisions of a checkpoint written before they could be chosen.
@@ -245,11 +208,24 @@ fn moore() -> Decisions {
     Decisions::Moore
 }
 
+/// The memory of a checkpoint written before it could be chosen.
+fn flat() -> Memory {
+    Memory::Nodes
+}
+
+fn three() -> usize {
+    3
+}
+
+fn four() -> usize {
+    4
+}
+
 impl Settings for ControllerConfig {
     fn set(&mut self, s: &Setting<'_>) -> Result<()> {
         // `None` leaves a setting whose default depends on the kind of value at that default.
         if s.value == Given::Nothing
-            && matches!(s.name, "samples" | "rho" | "template" | "decisions" | "memoryless_patience")
+            && matches!(s.name, "samples" | "rho" | "template" | "decisions" | "memoryless_patience" | "memory")
         {
             return Ok(());
         }
@@ -278,6 +254,9 @@ impl Settings for ControllerConfig {
             "template_weight" => self.template_weight = s.real()?,
             "decisions" => self.decisions = s.choice(Decisions::parse)?,
             "memoryless_patience" => self.memoryless_patience = s.count()?,
+            "memory" => self.memory = s.choice(Memory::parse)?,
+            "registers" => self.registers = s.count()?,
+            "register_size" => self.register_size = s.count()?,
             other => return Err(self.unknown(other)),
         }
         Ok(())
@@ -311,6 +290,9 @@ impl Default for ControllerConfig {
             template_weight: 0.5,
             decisions: Decisions::Moore,
             memoryless_patience: 0,
+            memory: Memory::Nodes,
+            registers: 3,
+            register_size: 4,
         }
     }
 }
@@ -319,8 +301,9 @@ impl ControllerConfig {
     /// The defaults of a search on `kind` values: [`Default`]'s on exact values; on sampled ones
     /// `N = 200`, `ρ = 0.05` and the `mixed` template (with `K = 20` and 500 selection
     /// episodes, the defaults of every search, used by sampled ones alone), and Mealy decisions
-    /// after a memoryless stage, so that the memory only adds to the best memoryless policy:
-    /// chosen by measurement (model §8).
+    /// after a memoryless stage, so that the memory only adds to the best memoryless policy,
+    /// and runs that alternate between flat nodes and a shift register: chosen by measurement
+    /// (model §8).
     pub fn defaults_for(kind: ValueKind) -> ControllerConfig {
         match kind {
             ValueKind::Exact => ControllerConfig::default(),
@@ -330,6 +313,7 @@ impl ControllerConfig {
                 template: Template::Mixed,
                 decisions: Decisions::Mealy,
                 memoryless_patience: 10,
+                memory: Memory::Alternate,
                 ..ControllerConfig::default()
             },
         }
@@ -342,6 +326,24 @@ impl ControllerConfig {
             (0, None) => 1,
             (n, _) => n,
         }
+    }
+
+    /// The memory of run `restart` (where no model start is kept): its nodes, registers (0:
+    /// flat nodes) and template.
+    pub fn memory_of(&self, restart: usize) -> (usize, usize, Template) {
+        let registers = self.register_size.pow(self.registers as u32);
+        match (self.memory, restart % 2) {
+            (Memory::Nodes, _) | (Memory::Alternate, 0) => (self.nodes, 0, self.template),
+            (Memory::Registers, _) => (registers, self.registers, self.template),
+            (Memory::Alternate, _) => (registers, self.registers, Template::Window),
+        }
+    }
+
+    /// The most nodes of a run's memory (where no model start is kept).
+    pub fn most_nodes(&self) -> usize {
+        let flat = if self.memory == Memory::Registers { 0 } else { self.nodes + self.growths };
+        let factored = if self.memory == Memory::Nodes { 0 } else { self.memory_of(1).0 };
+        flat.max(factored)
     }
 
     /// The stopping rules (model §8); the time limit covers every run together.
@@ -447,17 +449,69 @@ impl ControllerConfig {
         if !(self.injection > 0.0 && self.injection <= 1.0) {
             return Err(Error::invalid("injection", format!("{} (expected 0 < injection <= 1)", self.injection)));
         }
-        if self.memoryless_patience > 0 && self.decisions != Decisions::Mealy {
+        self.validate_memory()
+    }
+
+    /// Refuses a memory that does not fit: registers or a memoryless stage without Mealy
+    /// decisions, registers too few, too small or too many nodes.
+    fn validate_memory(&self) -> Result<()> {
+        let needs_mealy: Vec<String> = [
+            (self.memoryless_patience > 0).then(|| format!("memoryless_patience {}", self.memoryless_patience)),
+            (self.memory != Memory::Nodes).then(|| format!("memory \"{}\"", self.memory.as_str())),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if self.decisions != Decisions::Mealy && !needs_mealy.is_empty() {
+            let name = if self.memoryless_patience > 0 { "memoryless_patience" } else { "memory" };
             return Err(Error::invalid(
-                "memoryless_patience",
+                name,
                 format!(
-                    "{} with decisions \"{}\" (a memoryless stage needs decisions \"mealy\": one Moore node \
-                     is a blind policy; or memoryless_patience 0)",
-                    self.memoryless_patience,
+                    "{} with decisions \"{}\" (a memoryless stage and registers need decisions \"mealy\": one \
+                     Moore node is a blind policy; or memoryless_patience 0 and memory \"nodes\")",
+                    needs_mealy.join(" and "),
                     self.decisions.as_str()
                 ),
             ));
         }
+        if self.memory != Memory::Nodes {
+            let nodes = self.register_size.checked_pow(self.registers as u32);
+            if self.registers < 2 || self.register_size < 2 || nodes.is_none_or(|n| n > crate::policy::MAX_LEVEL_SIZE) {
+                return Err(Error::invalid(
+                    "registers",
+                    format!(
+                        "{} of register_size {} (expected at least 2 registers of at least 2 values, \
+                         register_size^registers <= {})",
+                        self.registers,
+                        self.register_size,
+                        crate::policy::MAX_LEVEL_SIZE
+                    ),
+                ));
+            }
+        }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn runs_alternate_between_flat_nodes_and_a_shift_register() {
+        let sampled = ControllerConfig::defaults_for(ValueKind::Sampled);
+        assert_eq!(sampled.memory, Memory::Alternate);
+        assert_eq!(sampled.memory_of(0), (8, 0, Template::Mixed));
+        assert_eq!(sampled.memory_of(1), (64, 3, Template::Window));
+        assert_eq!(sampled.memory_of(2), sampled.memory_of(0));
+        assert_eq!(sampled.most_nodes(), 64);
+        let exact = ControllerConfig { growths: 2, ..ControllerConfig::default() };
+        assert_eq!((exact.memory_of(1), exact.most_nodes()), ((8, 0, Template::Uniform), 10));
+        let registers = ControllerConfig { memory: Memory::Registers, register_size: 3, ..sampled };
+        assert_eq!((registers.memory_of(0), registers.most_nodes()), ((27, 3, Template::Mixed), 27));
+        for name in ["nodes", "registers", "alternate"] {
+            assert_eq!(Memory::parse(name).unwrap().as_str(), name);
+        }
+        assert!(Memory::parse("flat").unwrap_err().to_string().contains("\"alternate\""));
     }
 }

@@ -13,7 +13,9 @@
 pub mod checkpoint;
 pub mod config;
 mod laws;
+mod memory;
 mod outcome;
+mod stage;
 pub mod value;
 
 use rayon::prelude::*;
@@ -31,7 +33,9 @@ pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
 use crate::world::pomdp::PomdpWorld;
 
-pub use config::{ControllerConfig, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Template, ValueKind};
+pub use config::{
+    ControllerConfig, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
+};
 use laws::Laws;
 pub use outcome::{ControllerIteration, ControllerOutcome};
 use value::Seen;
@@ -71,9 +75,8 @@ pub fn optimize_controller_with(
         Valued::ExactElsewhere(_, remote) => remote.model().and_then(|w| model_start(w, config)),
         Valued::Sampled(_) => None,
     };
-    let nodes = start.as_ref().map_or(config.nodes, Controller::nodes);
     // The policy must fit before the search (its size known once the model start is).
-    let most = nodes + config.growths;
+    let most = start.as_ref().map_or(config.most_nodes(), |s| s.nodes() + config.growths);
     Layout::new(y1, n_actions, &[most, most])?.fits_in_memory()?;
     if let Valued::Sampled(_) = world {
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
@@ -82,6 +85,7 @@ pub fn optimize_controller_with(
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
     let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing, None)?;
     let staged = start.is_none() && config.memoryless_patience > 0;
+    let nodes = start.as_ref().map_or(config.memory_of(saver.state.restart).0, Controller::nodes);
     if let Some(run) = &saver.state.run
         && ((run.laws.nodes() != nodes + run.growths && !(staged && run.laws.nodes() == 1))
             || run.laws.shape() != (n_actions, y1))
@@ -105,7 +109,10 @@ pub fn optimize_controller_with(
             out_of_time = true;
             break;
         }
-        let run = match search.run(restart_seed(config.seed, restart), restart, resume, &mut saver, &mut observe) {
+        // The later runs skip the memoryless stage: an earlier run found its policy.
+        let stage = saver.state.finished.iter().find_map(|r| r.memoryless.clone());
+        let seed = restart_seed(config.seed, restart);
+        let run = match search.run(seed, restart, resume, stage, &mut saver, &mut observe) {
             // Cut before its first iteration: the runs that finished are what there is.
             Err(Error::Interrupted)
                 if !saver.state.finished.is_empty() && !search.interrupt().is_some_and(Interrupt::aborted) =>
@@ -124,8 +131,9 @@ pub fn optimize_controller_with(
         saver.state.finished.push(run);
         saver.state.restart += 1;
         saver.save(true);
-        // Runs until the time limit end with the target too.
-        if stop == StopReason::TimeLimit || (config.restarts == 0 && stop == StopReason::Target) {
+        // Runs until the time limit end with the target too. A run cut by the time limit is the
+        // last (the next run's start checks it), but one cut by its share of it.
+        if config.restarts == 0 && stop == StopReason::Target {
             break;
         }
     }
@@ -208,8 +216,9 @@ struct Search<'a> {
     values: Values<'a>,
     /// Values already computed: exact, or on the selection episodes.
     seen: Seen,
-    /// What a memoryless stage's best must beat ([`Search::blind_bar`]), once computed.
-    bar: std::sync::OnceLock<f64>,
+    /// What a memoryless stage's best must beat ([`Search::bar`]) and the gain that counts in
+    /// it ([`Search::stage_noise`]), once computed.
+    bar: std::sync::OnceLock<(f64, f64)>,
     /// The controller built from the model, if any: the runs have its nodes, their laws start
     /// around it, and it is the first controller of the first iteration.
     start: Option<Controller>,
@@ -332,7 +341,7 @@ impl Search<'_> {
             laws.inject(config.injection);
             *injections += 1;
             (true, false)
-        } else if *growths < config.growths {
+        } else if *growths < config.growths && !laws.factored() {
             *laws = Laws::grown(best, self.n_actions, self.y1, config.injection);
             *growths += 1;
             (false, true)
@@ -341,52 +350,19 @@ impl Search<'_> {
         }
     }
 
-    /// In a memoryless stage, what its best policy must beat to start the memory around it: every
-    /// blind policy ("always `a`") on exact values by the tolerance, on sampled ones by three
-    /// standard errors of its mean on the selection episodes (the best memoryless score is the
-    /// most of many, biased up). The same for every run of the search, computed once.
-    fn blind_bar(&self, state: &SearchState) -> Result<Option<f64>> {
-        if state.laws.nodes() > 1 || self.start.is_some() || self.config.memoryless_patience == 0 {
-            return Ok(None);
-        }
-        if let Some(&bar) = self.bar.get() {
-            return Ok(Some(bar));
-        }
-        let y1 = self.y1;
-        let blind: Vec<Controller> =
-            (0..self.n_actions as u32).map(|a| Controller::mealy(vec![a; y1], vec![0; y1], y1)).collect();
-        let tolerance = self.config.tolerance;
-        let bars: Vec<f64> = match &self.values {
-            Values::Exact(exact) => {
-                let mut scratch = Scratch::default();
-                blind.iter().map(|c| exact.value(c, &mut scratch) + tolerance).collect()
-            }
-            Values::ExactElsewhere(_, remote) => {
-                remote.exact_values(&blind, tolerance)?.into_iter().map(|v| v + tolerance).collect()
-            }
-            Values::Sampled(world) => {
-                let m = self.config.select_episodes;
-                let mut values = vec![0.0; blind.len() * m];
-                let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
-                self.pool.install(|| world.run_controllers(&blind, streams, m, &mut values))?;
-                let bar = |e: Evaluation| e.mean + 3.0 * if e.std_error.is_finite() { e.std_error } else { 0.0 };
-                values.chunks(m).map(Evaluation::from_rewards).map(bar).collect()
-            }
-        };
-        let bar = bars.into_iter().fold(f64::NEG_INFINITY, f64::max);
-        Ok(Some(*self.bar.get_or_init(|| bar)))
-    }
-
-    /// The state of a run that has not started: the first laws.
-    fn fresh(&self) -> SearchState {
+    /// The state of run `restart` before it starts: the first laws (after the memoryless stage
+    /// `stage` of an earlier run, if any).
+    fn fresh(&self, restart: usize, stage: Option<(f64, Controller)>) -> Result<SearchState> {
         let c = self.config;
-        SearchState {
-            laws: match &self.start {
-                Some(start) => Laws::around(start, self.n_actions, self.y1, c.template_weight),
-                None if c.memoryless_patience > 0 => Laws::uniform(1, self.n_actions, self.y1, true),
-                None => {
+        let (nodes, registers, template) = c.memory_of(restart);
+        Ok(SearchState {
+            laws: match (&self.start, &stage) {
+                (Some(start), _) => Laws::around(start, self.n_actions, self.y1, c.template_weight),
+                (None, Some((value, best))) if c.memoryless_patience > 0 => self.after_stage(restart, *value, best)?,
+                (None, None) if c.memoryless_patience > 0 => Laws::uniform(1, self.n_actions, self.y1, true),
+                (None, _) => {
                     let mealy = c.decisions == Decisions::Mealy;
-                    Laws::start(c.nodes, self.n_actions, self.y1, mealy, c.template, c.template_weight)
+                    Laws::start(nodes, self.n_actions, self.y1, mealy, registers, template, c.template_weight)
                 }
             },
             best: None,
@@ -395,7 +371,8 @@ impl Search<'_> {
             best_threshold: None,
             injections: 0,
             growths: 0,
-        }
+            memoryless: stage,
+        })
     }
 
     /// One run with `seed`, from its first laws or from the saved state `resume`.
@@ -404,12 +381,19 @@ impl Search<'_> {
         seed: u64,
         restart: usize,
         resume: Option<SearchState>,
+        stage: Option<(f64, Controller)>,
         saver: &mut Saver<'_, ControllerSearch>,
         observe: &mut impl FnMut(&ControllerIteration) -> Flow,
     ) -> Result<FinishedSearch> {
         let config = self.config;
         let rules = config.stop_rules();
-        let mut state = resume.unwrap_or_else(|| self.fresh());
+        let mut state = match resume {
+            Some(state) => state,
+            None => self.fresh(restart, stage)?,
+        };
+        // Alternating memories: the first run takes half the time limit at most, so that the
+        // registers have the rest.
+        let share = config.time_limit.filter(|_| restart == 0 && config.memory == Memory::Alternate).map(|t| t / 2.0);
         // A resumed run whose last iteration meets a stopping rule ends at once.
         let resumed_stop = state
             .history
@@ -421,24 +405,25 @@ impl Search<'_> {
             loop {
                 let iteration = state.history.len();
                 // The time limit as an instant, so that the exact values can check it as they go.
-                let deadline = config.time_limit.map(|t| {
+                let deadline = share.or(config.time_limit).map(|t| {
                     std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
                 });
                 let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
                 let valued = self.value(&state.laws, seed, iteration, &over_time);
-                let stop = match valued.and_then(|drawn| Ok((self.blind_bar(&state)?, drawn))) {
-                    Ok((bar, drawn)) => {
+                let stop = match valued.and_then(|drawn| self.stage_bar(&state).map(|()| drawn)) {
+                    Ok(drawn) => {
                         let cut = drawn.cut;
-                        let record = self.learn(&mut state, &drawn, restart, saver.seconds(), bar);
+                        let record = self.learn(&mut state, &drawn, restart, saver.seconds());
                         let flow = observe(&record);
                         let (value, seconds) = (record.best_so_far, record.record.seconds);
                         state.history.push(record);
                         if flow == Flow::Stop || self.interrupt().is_some_and(Interrupt::stopping) {
                             Some(StopReason::Interrupted)
                         } else {
+                            let over_share = share.is_some_and(|t| seconds >= t);
                             rules
                                 .check(state.history.len(), value, state.since_progress, seconds)
-                                .or(cut.then_some(StopReason::TimeLimit))
+                                .or((cut || over_share).then_some(StopReason::TimeLimit))
                         }
                     }
                     // Cut by an interrupt: the iteration is dropped (a resumed search draws it
@@ -458,7 +443,8 @@ impl Search<'_> {
         };
         // A run cut before its first iteration has nothing to keep.
         let (value, controller, best_iteration) = state.best.ok_or(Error::Interrupted)?;
-        Ok(FinishedSearch { value, controller, best_iteration, history: state.history, stop })
+        let memoryless = state.memoryless;
+        Ok(FinishedSearch { value, controller, best_iteration, history: state.history, stop, memoryless })
     }
 
     /// The iteration's controllers drawn from `laws` and valued, best first, with the candidate
@@ -476,14 +462,7 @@ impl Search<'_> {
 
     /// Learns from an iteration's controllers: the best so far, progress, the laws refitted to
     /// the elite, an escape where patience ran out; the iteration's record.
-    fn learn(
-        &self,
-        state: &mut SearchState,
-        drawn: &Draws,
-        restart: usize,
-        seconds: f64,
-        bar: Option<f64>,
-    ) -> ControllerIteration {
+    fn learn(&self, state: &mut SearchState, drawn: &Draws, restart: usize, seconds: f64) -> ControllerIteration {
         let config = self.config;
         let Draws { iteration, drawn, cut, order, candidate } = drawn;
         let elite_size = config.elite_count().min(drawn.len());
@@ -499,12 +478,14 @@ impl Search<'_> {
             progress = true;
         }
         state.since_progress = if progress { 0 } else { state.since_progress + 1 };
-        // Iterations in a row without a better controller (this one included), read from the
-        // history where a memoryless stage asks.
-        let since_better = |state: &SearchState| match &state.best {
-            Some((_, _, found)) if found == iteration => 0,
-            best => {
-                state.history.iter().rev().take_while(|r| Some(r.best_so_far) == best.as_ref().map(|b| b.0)).count()
+        // Iterations in a row whose best so far was within `noise` of the best (none if this
+        // one gained more), read from the history where a memoryless stage asks.
+        let since_better = |state: &SearchState, noise: f64| {
+            let best = state.best.as_ref().map_or(f64::NAN, |b| b.0);
+            if state.history.last().is_none_or(|r| best > r.best_so_far + noise) {
+                0
+            } else {
+                state.history.iter().rev().take_while(|r| r.best_so_far >= best - noise).count()
             }
         };
         // Ties at the threshold are left out when some controllers beat it: a plateau of equal
@@ -523,19 +504,16 @@ impl Search<'_> {
         // values a memoryless policy better by noise alone turns up again and again, so the
         // stage lasts three times its patience at most.
         let widened = state.laws.nodes() == 1
-            && config.nodes > 1
+            && config.memory_of(restart).0 > 1
             && self.start.is_none()
             && config.memoryless_patience > 0
-            && (iteration + 1 >= 3 * config.memoryless_patience || since_better(state) >= config.memoryless_patience);
+            && (iteration + 1 >= 3 * config.memoryless_patience
+                || since_better(state, self.stage_noise().expect("the bar computed")) >= config.memoryless_patience);
         if widened {
-            // Around the memoryless policy where it beats every blind one, else from the template.
             let (value, best, _) = state.best.as_ref().expect("a best controller after an iteration");
-            let (n, a, template, w) = (config.nodes, self.n_actions, config.template, config.template_weight);
-            state.laws = if bar.is_none_or(|bar| *value > bar) {
-                Laws::widened(best, n, a, template, w)
-            } else {
-                Laws::start(n, a, self.y1, true, template, w)
-            };
+            // The bar is known in the stage.
+            state.laws = self.after_stage(restart, *value, best).expect("the bar computed");
+            state.memoryless = Some((*value, best.clone()));
         }
         let (injected, grown) = if !widened && state.since_progress >= config.patience {
             let from = state.best.as_ref().map(|b| &b.1).expect("a best controller after an iteration");

@@ -1,0 +1,83 @@
+//! The memoryless stage (model §8): where a search's memory starts once the best memoryless
+//! policy is known.
+
+use super::laws::Laws;
+use super::{Controller, Scratch, Search, Values};
+use crate::episodes::Streams;
+use crate::error::Result;
+use crate::evaluate::Evaluation;
+use crate::rng::Purpose;
+
+use super::checkpoint::SearchState;
+
+impl Search<'_> {
+    /// In a memoryless stage, computes what its best policy must beat ([`Search::bar`]), so
+    /// that the iteration that ends the stage has it.
+    pub(super) fn stage_bar(&self, state: &SearchState) -> Result<()> {
+        if state.laws.nodes() > 1 || self.start.is_some() || self.config.memoryless_patience == 0 {
+            return Ok(());
+        }
+        self.bar().map(|_| ())
+    }
+
+    /// What the best memoryless policy must beat to start the memory around it: every blind
+    /// policy ("always `a`") on exact values by the tolerance, on sampled ones by three standard
+    /// errors of its mean on the selection episodes (the best memoryless score is the most of
+    /// many, biased up). The same for every run of the search, computed once.
+    fn bar(&self) -> Result<f64> {
+        self.bar_and_noise().map(|(bar, _)| bar)
+    }
+
+    /// The gain of the stage's best that counts as one (the stage ends after
+    /// `memoryless_patience` iterations without it): 0 on exact values (the tolerance decides),
+    /// on sampled ones the largest standard error of a blind policy's mean on the selection
+    /// episodes, so that a memoryless policy better by noise alone does not hold the stage.
+    pub(super) fn stage_noise(&self) -> Result<f64> {
+        self.bar_and_noise().map(|(_, noise)| noise)
+    }
+
+    fn bar_and_noise(&self) -> Result<(f64, f64)> {
+        if let Some(&known) = self.bar.get() {
+            return Ok(known);
+        }
+        let y1 = self.y1;
+        let blind: Vec<Controller> =
+            (0..self.n_actions as u32).map(|a| Controller::mealy(vec![a; y1], vec![0; y1], y1)).collect();
+        let tolerance = self.config.tolerance;
+        let bars: Vec<(f64, f64)> = match &self.values {
+            Values::Exact(exact) => {
+                let mut scratch = Scratch::default();
+                blind.iter().map(|c| (exact.value(c, &mut scratch) + tolerance, 0.0)).collect()
+            }
+            Values::ExactElsewhere(_, remote) => {
+                remote.exact_values(&blind, tolerance)?.into_iter().map(|v| (v + tolerance, 0.0)).collect()
+            }
+            Values::Sampled(world) => {
+                let m = self.config.select_episodes;
+                let mut values = vec![0.0; blind.len() * m];
+                let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
+                self.pool.install(|| world.run_controllers(&blind, streams, m, &mut values))?;
+                let bar = |e: Evaluation| {
+                    let se = if e.std_error.is_finite() { e.std_error } else { 0.0 };
+                    (e.mean + 3.0 * se, se)
+                };
+                values.chunks(m).map(Evaluation::from_rewards).map(bar).collect()
+            }
+        };
+        let known =
+            bars.into_iter().fold((f64::NEG_INFINITY, 0.0_f64), |(b, n), (bar, noise)| (b.max(bar), n.max(noise)));
+        Ok(*self.bar.get_or_init(|| known))
+    }
+
+    /// The memory of run `restart` after the memoryless stage: around its best policy `best`
+    /// (of `value`) where that beats every blind policy, else from the template.
+    pub(super) fn after_stage(&self, restart: usize, value: f64, best: &Controller) -> Result<Laws> {
+        let (n, registers, template) = self.config.memory_of(restart);
+        let (a, w) = (self.n_actions, self.config.template_weight);
+        Ok(if value > self.bar()? {
+            Laws::widened(best, n, a, registers, template, w)
+        } else {
+            Laws::start(n, a, self.y1, true, registers, template, w)
+        })
+    }
+}
