@@ -42,6 +42,7 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
         "best_so_far",
         "concentration",
         "evaluated",
+        "episodes",
         "injected",
         "grown",
         "widened",
@@ -51,6 +52,7 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
     assert len(h["best_so_far"]) == len(h["mean"]) and h["best_so_far"][-1] == result.value
     # The fields episode CE's records also have mean the same (an iteration's statistics).
     assert h["iteration"].dtype == np.int64 and h["successful"].dtype == np.bool_
+    assert h["episodes"].dtype == np.int64 and not h["episodes"].any()  # exact values run none
     eps = 1e-9  # a mean of equal values may differ from them in the last bit
     assert np.all(h["mean"] <= h["elite_mean"] + eps) and np.all(h["elite_threshold"] <= h["elite_mean"] + eps)
     assert np.all(h["elite_mean"] <= h["best"] + eps)
@@ -101,6 +103,8 @@ def test_a_t_maze_is_solved_on_sampled_values_and_valued_on_fresh_episodes() -> 
     result = cehmm.optimize_controller(maze, nodes=6, samples=500, rho=0.05, template="hold", progress=False)
     assert result.kind == "sampled"
     assert result.value == result.evaluation.mean == pytest.approx(maze.optimum)
+    # Each iteration ran its 500 controllers' 20 episodes, and selection episodes.
+    assert (result.history["episodes"] >= 500 * 20).all()
     # The evaluation is the policy's own, on the fresh episodes of Policy.evaluate.
     again = result.policy.evaluate(maze, episodes=result.evaluation.episodes, seed=0)
     assert again.mean == result.evaluation.mean

@@ -46,7 +46,9 @@ class ControllerResult:
             best value of the run so far: exact, or on the selection episodes),
             ``concentration`` (mean largest probability of the laws' rows: 1 when every draw is
             the same controller), ``evaluated`` (controllers evaluated: fewer than ``samples``
-            when the time limit cut the iteration), ``injected`` (bool: the laws were mixed
+            when the time limit cut the iteration), ``episodes`` (int64, sampled values: the
+            world's episodes the iteration ran, selection included: what it cost, like
+            ``seconds``; 0 on exact values), ``injected`` (bool: the laws were mixed
             with the uniform law after this iteration), ``grown`` (bool: the laws grew a node
             after this iteration), ``widened`` (bool: the memoryless stage ended after this
             iteration) and ``seconds``.

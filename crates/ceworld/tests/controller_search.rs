@@ -245,6 +245,7 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     let first = &out.history[0];
     assert!(first.evaluated >= 1 && first.evaluated < 2000, "{}", first.evaluated);
     assert!(out.value.is_finite() && out.value == first.best_so_far);
+    assert_eq!(first.episodes, 0, "exact values run no episode");
     // Sampled values: cut between groups of controllers, each group's values those of a whole
     // iteration.
     let w = world("hallway.POMDP", 60, None);
@@ -256,6 +257,11 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     let whole = ControllerConfig { samples: first.evaluated, time_limit: None, max_iterations: Some(1), ..config };
     let all = optimize_controller(Valued::Sampled(&w), &whole, |_| Flow::Continue).unwrap();
     assert_eq!(all.history[0].record.mean.to_bits(), first.record.mean.to_bits());
+    // The episodes run: K for each controller valued, the 500 selection episodes for each of
+    // the (at most 4, distinct) candidates.
+    let selection = first.episodes - first.evaluated as u64 * 50;
+    assert!(selection % 500 == 0 && (1..=4).contains(&(selection / 500)), "{}", first.episodes);
+    assert_eq!(all.history[0].episodes, first.episodes);
 }
 
 #[test]
@@ -355,6 +361,8 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
                 .map(|r| {
                     let mut r = r.clone();
                     r.record.seconds = 0.0;
+                    // What it cost: a resumed search scores some selection episodes again.
+                    r.episodes = 0;
                     r
                 })
                 .collect::<Vec<_>>()

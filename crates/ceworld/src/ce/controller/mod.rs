@@ -99,7 +99,8 @@ pub fn optimize_controller_with(
         Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
     let seen = Seen::new(most, y1);
-    let search = Search { config, values, seen, bar: std::sync::OnceLock::new(), start, y1, n_actions, pool };
+    let (bar, episodes) = (std::sync::OnceLock::new(), std::sync::atomic::AtomicU64::new(0));
+    let search = Search { config, values, seen, bar, episodes, start, y1, n_actions, pool };
     let (mut interrupted, mut stopped, mut out_of_time) = (None, false, false);
     while saver.state.restart < config.runs() {
         let restart = saver.state.restart;
@@ -219,6 +220,8 @@ struct Search<'a> {
     /// What a memoryless stage's best must beat ([`Search::bar`]) and the gain that counts in
     /// it ([`Search::stage_noise`]), once computed.
     bar: std::sync::OnceLock<(f64, f64)>,
+    /// The world's episodes run since the last record.
+    episodes: std::sync::atomic::AtomicU64,
     /// The controller built from the model, if any: the runs have its nodes, their laws start
     /// around it, and it is the first controller of the first iteration.
     start: Option<Controller>,
@@ -282,6 +285,7 @@ impl Search<'_> {
                     }
                     let mut values = vec![0.0; chunk.len() * k];
                     world.run_controllers(chunk, streams, k, &mut values)?;
+                    self.ran(values.len());
                     let means = values.chunks(k).map(|v| mean(v.iter().copied()));
                     valued.extend(means.zip(chunk.iter().cloned()).map(Some));
                 }
@@ -289,6 +293,11 @@ impl Search<'_> {
                 Ok(valued)
             }
         })
+    }
+
+    /// Counts `episodes` of the world run for the next record.
+    fn ran(&self, episodes: usize) {
+        self.episodes.fetch_add(episodes as u64, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// The mean value of each of `controllers` on the selection episodes (shared by every
@@ -303,6 +312,7 @@ impl Search<'_> {
         let mut values = vec![0.0; new.len() * m];
         let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
         self.pool.install(|| world.run_controllers(&new, streams, m, &mut values))?;
+        self.ran(values.len());
         let mut fresh = new.iter().zip(values.chunks(m)).map(|(c, v)| {
             let score = mean(v.iter().copied());
             self.seen.keep(c, score);
@@ -540,6 +550,7 @@ impl Search<'_> {
             best_so_far: state.best.as_ref().map_or(f64::NAN, |b| b.0),
             concentration: state.laws.concentration(),
             evaluated: drawn.len(),
+            episodes: self.episodes.swap(0, std::sync::atomic::Ordering::Relaxed),
             injected,
             grown,
             widened,

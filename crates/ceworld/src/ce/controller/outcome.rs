@@ -32,6 +32,12 @@ pub struct ControllerIteration {
     pub concentration: f64,
     /// Controllers evaluated (fewer than `samples` when the time limit cut the iteration).
     pub evaluated: usize,
+    /// Sampled values: the world's episodes this iteration ran (its controllers', the new
+    /// selection scores', the blind policies' once): what it cost, like `seconds` (a resumed
+    /// search may run some again: its store of selection scores starts empty); 0 on exact
+    /// values.
+    #[serde(default)]
+    pub episodes: u64,
     /// Whether the laws were mixed with the uniform law after this iteration (an escape).
     pub injected: bool,
     /// Whether the laws grew a node after this iteration (an escape).

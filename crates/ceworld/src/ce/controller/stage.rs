@@ -57,6 +57,7 @@ impl Search<'_> {
                 let mut values = vec![0.0; blind.len() * m];
                 let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
                 self.pool.install(|| world.run_controllers(&blind, streams, m, &mut values))?;
+                self.ran(values.len());
                 let bar = |e: Evaluation| {
                     let se = if e.std_error.is_finite() { e.std_error } else { 0.0 };
                     (e.mean + 3.0 * se, se)
