@@ -194,6 +194,24 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
     let many = optimize_controller(Valued::Exact(&w), &timed, |_| Flow::Continue).unwrap();
     assert!(many.run_values.len() > 2 && many.stop == StopReason::TimeLimit, "{:?}", many.run_values);
     assert_eq!(many.run_values[0], once.run_values[0]);
+    // Alternating memories: a first run that would go on takes half the time limit, and the
+    // registers the rest; alone, it takes the whole limit.
+    let alternate = ControllerConfig {
+        patience: 1_000_000,
+        time_limit: Some(1.0),
+        max_iterations: None,
+        restarts: 0,
+        memory: ceworld::ce::controller::Memory::Alternate,
+        registers: 2,
+        register_size: 2,
+        ..ControllerConfig::defaults_for(ceworld::ce::controller::ValueKind::Sampled)
+    };
+    let turns = optimize_controller(Valued::Sampled(&w), &alternate, |_| Flow::Continue).unwrap();
+    let first = turns.history.iter().rfind(|r| r.restart == 0).unwrap();
+    assert!(first.record.seconds < 0.9 && turns.history.iter().any(|r| r.restart == 1), "{}", first.record.seconds);
+    let alone = ControllerConfig { restarts: 1, ..alternate };
+    let one = optimize_controller(Valued::Sampled(&w), &alone, |_| Flow::Continue).unwrap();
+    assert!(one.history.last().unwrap().record.seconds >= 0.9 && one.run_values.len() == 1);
 
     let mut seen = 0;
     let stopped = optimize_controller(Valued::Exact(&w), &config, |_| {

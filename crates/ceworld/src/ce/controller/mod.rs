@@ -132,8 +132,8 @@ pub fn optimize_controller_with(
         saver.state.finished.push(run);
         saver.state.restart += 1;
         saver.save(true);
-        // Runs until the time limit end with the target too. A run cut by the time limit is the
-        // last (the next run's start checks it), but one cut by its share of it.
+        // Runs until the time limit end with the target too. Past the time limit no run starts
+        // (checked above): a run stopped by its share of the limit is followed by the next.
         if config.restarts == 0 && stop == StopReason::Target {
             break;
         }
@@ -401,9 +401,10 @@ impl Search<'_> {
             Some(state) => state,
             None => self.fresh(restart, stage)?,
         };
-        // Alternating memories: the first run takes half the time limit at most, so that the
-        // registers have the rest.
-        let share = config.time_limit.filter(|_| restart == 0 && config.memory == Memory::Alternate).map(|t| t / 2.0);
+        // Alternating memories: the first of several runs takes half the time limit at most, so
+        // that the registers have the rest.
+        let shared = restart == 0 && config.memory == Memory::Alternate && config.runs() > 1;
+        let share = config.time_limit.filter(|_| shared).map(|t| t / 2.0);
         // A resumed run whose last iteration meets a stopping rule ends at once.
         let resumed_stop = state
             .history
