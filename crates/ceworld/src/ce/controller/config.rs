@@ -194,12 +194,12 @@ pub struct ControllerConfig {
     /// `nodes²`; with the `window` template they start as a shift register of the last
     /// `registers` observations.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().registers))]
-    #[serde(default = "three")]
+    #[serde(default = "default_registers")]
     pub registers: usize,
     /// Values of each register of a factored memory (the first register's `window` template
     /// copies the observation modulo this).
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().register_size))]
-    #[serde(default = "four")]
+    #[serde(default = "default_register_size")]
     pub register_size: usize,
 }
 
@@ -213,12 +213,14 @@ fn flat() -> Memory {
     Memory::Nodes
 }
 
-fn three() -> usize {
-    3
+/// The registers of a checkpoint written before they could be chosen: the default.
+fn default_registers() -> usize {
+    ControllerConfig::default().registers
 }
 
-fn four() -> usize {
-    4
+/// The register size of a checkpoint written before it could be chosen: the default.
+fn default_register_size() -> usize {
+    ControllerConfig::default().register_size
 }
 
 impl Settings for ControllerConfig {

@@ -99,8 +99,7 @@ impl Laws {
             let targets = if registers == 0 {
                 template.successors(r / y1, r % y1, n, y1)
             } else {
-                // r = ((i·Y + y)·d + a)·d + b
-                let (b, a, y, i) = (r % width, r / width % width, r / (width * width) % y1, r / (width * width * y1));
+                let (i, y, a, b) = register_row(r, y1, width);
                 template.register_successors(i, y, a, b, width)
             };
             if targets.is_empty() {
@@ -163,7 +162,7 @@ impl Laws {
             // a controller these laws drew).
             let (m, d, y1) = (self.registers, self.width(), self.y1);
             for (row, law) in self.next.chunks_mut(d).enumerate() {
-                let (b, a, y, i) = (row % d, row / d % d, row / (d * d) % y1, row / (d * d * y1));
+                let (i, y, a, b) = register_row(row, y1, d);
                 let q = b * d.pow(i as u32) + a * d.pow(((i + m - 1) % m) as u32);
                 law[digit(c.next[q * y1 + y] as usize, i, d)] += weight;
             }
@@ -183,6 +182,12 @@ pub(super) fn register_size(n: usize, registers: usize) -> usize {
     let d = (n as f64).powf(1.0 / registers as f64).round() as usize;
     debug_assert_eq!(d.pow(registers as u32), n, "{n} nodes are not {registers} registers");
     d
+}
+
+/// The (register `i`, observation `y`, value `a` of register `i − 1`, value `b` of register
+/// `i`) of a register's successor law, numbered `((i·Y + y)·d + a)·d + b`.
+fn register_row(row: usize, y1: usize, d: usize) -> (usize, usize, usize, usize) {
+    (row / (d * d * y1), row / (d * d) % y1, row / d % d, row % d)
 }
 
 /// Digit `i` of `q` in base `d`.
