@@ -77,6 +77,10 @@ class InProcess:
         self.asked.append("controller_values")
         return Done(_core.controller_values(self.engine, controllers, seed, purpose, iteration, episodes, 1))
 
+    def controller_credit(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Done:
+        self.asked.append("controller_credit")
+        return Done(_core.controller_credit(self.engine, controllers, seed, purpose, iteration, episodes, 1))
+
     def exact_values(self, controllers: str, tolerance: float) -> Done:
         self.asked.append("exact_values")
         return Done(_core.controller_exact_values(self.engine, controllers, tolerance, 1))
@@ -96,7 +100,7 @@ def test_any_backend_runs_every_optimiser_as_here():
     here = cehmm.optimize_controller(Corridor(), **search)
     there = cehmm.optimize_controller(Corridor(), backend=backend, **search)
     assert there.policy.to_json() == here.policy.to_json()
-    assert "controller_values" in backend.asked
+    assert {"controller_credit", "controller_values"} <= set(backend.asked)
 
     settings = dict(nodes=2, samples=20, episodes=5, max_iterations=2, eval_episodes=100, progress=False)
     here_run = cehmm.run("random-search", Corridor(), **settings)

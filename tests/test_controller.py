@@ -245,6 +245,22 @@ def test_a_shift_register_of_registers_holds_the_last_cards() -> None:
     assert result.policy.levels[0] <= 1 + 16 * 4
 
 
+def test_credit_within_episodes_learns_the_decisions_a_shift_register_needs() -> None:
+    # The memory fixed as a shift register of the last three suits (template weight 0.999):
+    # what is left to learn is the decision of 64 nodes × 4 suits. Credited by its steps, each
+    # row finds the suit that pays; ranked as whole controllers, the laws barely move.
+    settings = dict(
+        memory="registers", template="window", template_weight=0.999, memoryless_patience=0, max_iterations=15
+    )
+    settings.update(seed=0, threads=1, eval_episodes=2000, progress=False)
+    steps = cehmm.optimize_controller(RepeatPrevious(), **settings)
+    elite = cehmm.optimize_controller(RepeatPrevious(), credit="elite", **settings)
+    assert steps.policy.provenance["credit"] == "steps"
+    assert steps.value > 0.3 > elite.value
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"credit: \"ranks\" \(expected \"steps\" or \"elite\"\)"):
+        cehmm.optimize_controller(RepeatPrevious(), credit="ranks", progress=False)
+
+
 def test_registers_are_refused_where_they_do_not_fit() -> None:
     with pytest.raises(cehmm.InvalidArgumentError, match=r"registers.*1 of register_size 4"):
         cehmm.optimize_controller(RepeatPrevious(), memory="registers", registers=1, progress=False)

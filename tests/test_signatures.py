@@ -124,7 +124,7 @@ def test_the_core_defaults_are_the_configs() -> None:
     assert {"gamma", "alpha", "seed", "ties"} <= set(_core.Q_DEFAULTS)
     assert (_core.Q_DEFAULTS["gamma"], _core.Q_DEFAULTS["alpha"], _core.Q_DEFAULTS["ties"]) == (0.99, 0.1, "random")
     assert set(_core.WINDOW_DEFAULTS) == {"window", "episodes", "chains", "burn_in", "windows_per_chain"}
-    by_kind = {"samples", "rho", "template", "decisions", "memoryless_patience", "memory"}
+    by_kind = {"samples", "rho", "smoothing", "template", "decisions", "memoryless_patience", "memory"}
     assert set(_core.CONTROLLER_DEFAULTS["sampled"]) == by_kind
     for defaults in (_core.CE_DEFAULTS, _core.Q_DEFAULTS, _core.WINDOW_DEFAULTS):
         assert defaults and all(isinstance(k, str) for k in defaults)

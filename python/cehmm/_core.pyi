@@ -27,6 +27,7 @@ __all__ = [
     "RemoteWorld",
     "controller_exact_values",
     "controller_values",
+    "controller_credit",
     "Policy",
     "cli",
     "read_file",
@@ -293,6 +294,15 @@ class _OptimizeOutcome(TypedDict):
     seconds: float
 
 def controller_values(
+    world: World | OutsideWorld,
+    controllers: str,
+    seed: int,
+    purpose: str,
+    iteration: int,
+    episodes: int,
+    threads: int | None = None,
+) -> npt.NDArray[np.float64]: ...
+def controller_credit(
     world: World | OutsideWorld,
     controllers: str,
     seed: int,

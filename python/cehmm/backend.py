@@ -57,6 +57,12 @@ class Sampler(Protocol):
         """The mean reward of episodes ``0..episodes`` of each controller, in order."""
         ...
 
+    def controller_credit(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Pending:
+        """As :meth:`controller_values`, with each controller's credit within its episodes (model
+        §8), controller after controller: 1.0 where credited (else 0.0), its ``episodes``
+        values, then its decision rows' visits and summed credit (``_core.controller_credit``)."""
+        ...
+
     def exact_values(self, controllers: str, tolerance: float) -> Pending:
         """The exact value of each controller (a tabular world), to ``tolerance``."""
         ...

@@ -94,7 +94,7 @@ def optimize_controller(
     episodes: int = CONTROLLER_DEFAULTS["episodes"],
     samples: int | None = None,
     rho: float | None = None,
-    smoothing: float = CONTROLLER_DEFAULTS["smoothing"],
+    smoothing: float | None = None,
     patience: int = CONTROLLER_DEFAULTS["patience"],
     max_iterations: int | None = None,
     target: float | None = None,
@@ -117,6 +117,7 @@ def optimize_controller(
     memory: str | None = None,
     registers: int = CONTROLLER_DEFAULTS["registers"],
     register_size: int = CONTROLLER_DEFAULTS["register_size"],
+    credit: str = CONTROLLER_DEFAULTS["credit"],
     progress: bool = True,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
@@ -160,7 +161,8 @@ def optimize_controller(
         samples: controllers per iteration (default 2000 on exact values, 200 on sampled:
             ``cehmm.controller.CONTROLLER_DEFAULTS`` and its ``"sampled"`` entry).
         rho: selective rate, ``0 < rho < 1`` (default 0.02 on exact values, 0.05 on sampled).
-        smoothing: ``0 < smoothing <= 1``.
+        smoothing: ``0 < smoothing <= 1`` (default 0.1 on exact values, 0.25 on sampled: with
+            credit within episodes the decisions' refits are sure enough for larger steps).
         patience: iterations without progress before a run stops (or, with ``injections``
             left, escapes).
         max_iterations: stop a run after this many iterations.
@@ -224,6 +226,13 @@ def optimize_controller(
         registers: registers of a factored memory, at least 2.
         register_size: values of each register (the ``"window"`` template's first register
             copies the observation modulo this), at least 2.
+        credit: what refits the decision laws on sampled values: ``"steps"`` (credit within
+            episodes: where the world's value is the discounted sum of its steps' rewards, a
+            world written in Python or a Gymnasium environment without ``score``, each decision
+            row moves towards the decision whose steps had the highest mean value still to
+            come, over every controller's episodes of the iteration; elsewhere the elite) or
+            ``"elite"`` (the elite controllers' decisions, as the memory's laws). Default
+            ``"steps"``.
         progress: print a live progress line on stderr.
         checkpoint: a file where the whole state of the search (laws, best controller so far,
             history, finished restarts) is saved every ``checkpoint_every`` seconds and whenever
@@ -291,6 +300,7 @@ def optimize_controller(
                 memory=memory,
                 registers=registers,
                 register_size=register_size,
+                credit=credit,
             ),
             value=value,
             progress=progress,

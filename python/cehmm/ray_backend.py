@@ -317,12 +317,22 @@ class RaySampler:
 
     def controller_values(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> RayPending:
         """Values of episodes ``0..episodes`` of each controller, controller by controller."""
+        return self._controllers("controllers", controllers, seed, purpose, iteration, episodes)
+
+    def controller_credit(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> RayPending:
+        """Values and credit within episodes of each controller, controller by controller."""
+        return self._controllers("credit", controllers, seed, purpose, iteration, episodes)
+
+    def _controllers(
+        self, kind: str, controllers: str, seed: int, purpose: str, iteration: int, episodes: int
+    ) -> RayPending:
+        """Shards of contiguous controllers, their answers concatenated in order."""
         laws = json.loads(controllers)
         shards = [
             (json.dumps(laws[a:b]), seed, purpose, iteration, episodes)
             for a, b in _cuts(len(laws), self.backend.workers)
         ]
-        return self._submit("controllers", "", shards, np.concatenate)
+        return self._submit(kind, "", shards, np.concatenate)
 
     def exact_values(self, controllers: str, tolerance: float) -> RayPending:
         """Exact values of each controller (a tabular world), to ``tolerance``."""
@@ -403,9 +413,10 @@ def _shard(key: str, world: list[Any], kind: str, policy: str, threads: int, *ar
         engine = _WORLDS[key] = core_world(user_world, **options)
         if len(_WORLDS) > 8:
             _WORLDS.pop(next(iter(_WORLDS)))
-    if kind == "controllers":
+    if kind in ("controllers", "credit"):
+        run = _core.controller_values if kind == "controllers" else _core.controller_credit
         controllers, seed, purpose, iteration, episodes = args
-        return _core.controller_values(engine, controllers, seed, purpose, iteration, episodes, threads)
+        return run(engine, controllers, seed, purpose, iteration, episodes, threads)
     if kind == "exact":
         controllers, tolerance = args
         return _core.controller_exact_values(engine, controllers, tolerance, threads)

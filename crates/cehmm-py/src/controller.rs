@@ -19,8 +19,8 @@ use crate::policy::PyPolicy;
 use crate::run::{checkpointing, watched};
 
 /// Searches a deterministic controller of any world (model §8) with `settings` (keyword
-/// settings by name; one left out, or `None` for `samples`, `rho`, `template`, `decisions`,
-/// `memoryless_patience` and `memory`, has the default of the kind of value used); Ctrl-C stops
+/// settings by name; one left out, or `None` for `samples`, `rho`, `smoothing`, `template`,
+/// `decisions`, `memoryless_patience` and `memory`, has the default of the kind of value used); Ctrl-C stops
 /// it between iterations and the result comes back marked interrupted.
 #[pyfunction]
 #[pyo3(signature = (world, settings, *, value=None, progress, checkpoint=None, checkpoint_every=None, resume=None))]

@@ -312,6 +312,10 @@ impl BatchWorld for PyBatch {
         self.world.discount
     }
 
+    fn additive(&self) -> bool {
+        self.world.score.is_none()
+    }
+
     fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {
         if self.world.score.is_none() {
             return Ok(discounted(episode.rewards, self.world.discount));

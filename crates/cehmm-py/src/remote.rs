@@ -8,12 +8,14 @@
 //! in Python the protocol `cehmm.backend.Sampler`, checked against each other by
 //! `tests/test_backend.py`. It has `rewards(policy, seed, purpose, iteration, first, n)`,
 //! `counts(policy, seed, iteration, episodes)`,
-//! `controller_values(controllers, seed, purpose, iteration, episodes)` and
-//! `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
+//! `controller_values(controllers, seed, purpose, iteration, episodes)`,
+//! `controller_credit(controllers, seed, purpose, iteration, episodes)` (the values with each
+//! controller's credit within its episodes, model §8) and `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
 //! returning at once a pending answer ([`PENDING`]: `wait(seconds) -> bool`,
 //! `result() -> numpy array` and `cancel()`), waited for by `ceworld::episodes::wait_for`, so
-//! that Ctrl-C cancels what is still running. On the engine's side the same four are the [`Episodes`]
-//! methods `run` and `run_controllers` and the trait [`ceworld::episodes::Remote`].
+//! that Ctrl-C cancels what is still running. On the engine's side the same five are the [`Episodes`]
+//! methods `run`, `run_controllers` and `run_controllers_credited` and the trait
+//! [`ceworld::episodes::Remote`].
 
 use std::sync::Mutex;
 
@@ -22,16 +24,18 @@ use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use serde_json::{Value, json};
 
+use ceworld::episodes::credit::StepCredit;
 use ceworld::episodes::{Batch, Episodes, Pending, Shape, Streams, wait_for};
 use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
 use ceworld::{Error, Hhmm, Interrupt, PolicyFile, PomdpWorld};
 
 /// What the engine asks of a backend, by name: rewards, counts, controller values, exact values.
-pub const METHODS: [&str; 4] = [REWARDS, COUNTS, CONTROLLER_VALUES, EXACT_VALUES];
+pub const METHODS: [&str; 5] = [REWARDS, COUNTS, CONTROLLER_VALUES, CONTROLLER_CREDIT, EXACT_VALUES];
 const REWARDS: &str = "rewards";
 const COUNTS: &str = "counts";
 const CONTROLLER_VALUES: &str = "controller_values";
+const CONTROLLER_CREDIT: &str = "controller_credit";
 const EXACT_VALUES: &str = "exact_values";
 /// What a backend's pending answer has: wait, result, cancel.
 pub const PENDING: [&str; 3] = [WAIT_FOR, RESULT, CANCEL];
@@ -221,6 +225,24 @@ impl Episodes for Remote {
         )?;
         values.copy_from_slice(&answer);
         Ok(())
+    }
+
+    fn run_controllers_credited(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> ceworld::Result<bool> {
+        let text = serde_json::to_string(controllers).expect("controllers serialise");
+        let purpose = purpose_name(streams.purpose)?;
+        let answer = self.ask::<f64>(
+            CONTROLLER_CREDIT,
+            |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
+            controllers.len() * StepCredit::block(episodes, credit.rows),
+        )?;
+        Ok(credit.add_blocks(&answer, values, episodes))
     }
 
     fn interrupt(&self) -> Option<&Interrupt> {

@@ -1,11 +1,12 @@
-//! The worker's side of episodes sampled elsewhere (model §9): `controller_values` and
-//! `controller_exact_values`, a shard of a controller search's iteration as a worker runs it.
+//! The worker's side of episodes sampled elsewhere (model §9): `controller_values`,
+//! `controller_credit` and `controller_exact_values`, a shard of a controller search's iteration as a worker runs it.
 
 use numpy::PyArray1;
 use pyo3::prelude::*;
 
 use ceworld::Error;
 use ceworld::ce::controller::ControllerValue;
+use ceworld::episodes::credit::StepCredit;
 use ceworld::episodes::{Shape, Streams};
 use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
@@ -39,21 +40,79 @@ pub fn controller_values<'py>(
     episodes: &Bound<'py, PyAny>,
     threads: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let streams = Streams {
-        seed: self::seed("seed", seed)?,
-        purpose: Purpose::of_episodes(purpose).or_raise()?,
-        iteration: self::seed("iteration", iteration)?,
-    };
-    let episodes = count("episodes", episodes)?;
-    ceworld::evaluate::check_episodes(episodes).or_raise()?;
-    let pool = ceworld::control::thread_pool(crate::convert::optional_count("threads", threads)?).or_raise()?;
-    let world = WorldArg::of(world)?;
-    let controllers = read_controllers(controllers, world.run(py, |w| Ok(w.shape()))?)?;
-    let values = world.run(py, |w| {
-        let mut values = vec![0.0; controllers.len() * episodes];
-        pool.install(|| w.run_controllers(&controllers, streams, episodes, &mut values)).map(|()| values)
+    let run = Shard::read(py, world, controllers, seed, purpose, iteration, episodes, threads)?;
+    let pool = ceworld::control::thread_pool(run.threads).or_raise()?;
+    let values = run.world.run(py, |w| {
+        let mut values = vec![0.0; run.controllers.len() * run.episodes];
+        pool.install(|| w.run_controllers(&run.controllers, run.streams, run.episodes, &mut values)).map(|()| values)
     })?;
     Ok(PyArray1::from_vec(py, values))
+}
+
+/// As [`controller_values`], with the credit of each controller's decision rows within its
+/// episodes (model §8), controller by controller: whether credited, its values, its rows'
+/// visits and summed credit (`ceworld::episodes::credit::StepCredit::to_blocks`).
+#[pyfunction]
+#[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn controller_credit<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
+    controllers: &str,
+    seed: &Bound<'py, PyAny>,
+    purpose: &str,
+    iteration: &Bound<'py, PyAny>,
+    episodes: &Bound<'py, PyAny>,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let run = Shard::read(py, world, controllers, seed, purpose, iteration, episodes, threads)?;
+    let rows = run.controllers.first().map_or(0, StepCredit::rows_of);
+    let pool = ceworld::control::thread_pool(run.threads).or_raise()?;
+    let blocks = run.world.run(py, |w| {
+        let mut values = vec![0.0; run.controllers.len() * run.episodes];
+        let mut credit = StepCredit::new(run.controllers.len(), rows);
+        let credited = pool.install(|| {
+            w.run_controllers_credited(&run.controllers, run.streams, run.episodes, &mut values, &mut credit)
+        })?;
+        Ok(credit.to_blocks(credited, &values, run.episodes))
+    })?;
+    Ok(PyArray1::from_vec(py, blocks))
+}
+
+/// A shard of controllers to run, its arguments read.
+struct Shard<'py> {
+    world: WorldArg<'py>,
+    controllers: Vec<Controller>,
+    streams: Streams,
+    episodes: usize,
+    threads: Option<usize>,
+}
+
+impl<'py> Shard<'py> {
+    #[allow(clippy::too_many_arguments)]
+    fn read(
+        py: Python<'py>,
+        world: &Bound<'py, PyAny>,
+        controllers: &str,
+        seed: &Bound<'py, PyAny>,
+        purpose: &str,
+        iteration: &Bound<'py, PyAny>,
+        episodes: &Bound<'py, PyAny>,
+        threads: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Shard<'py>> {
+        let streams = Streams {
+            seed: self::seed("seed", seed)?,
+            purpose: Purpose::of_episodes(purpose).or_raise()?,
+            iteration: self::seed("iteration", iteration)?,
+        };
+        let episodes = count("episodes", episodes)?;
+        ceworld::evaluate::check_episodes(episodes).or_raise()?;
+        let threads = crate::convert::optional_count("threads", threads)?;
+        ceworld::control::thread_pool(threads).or_raise()?;
+        let world = WorldArg::of(world)?;
+        let controllers = read_controllers(controllers, world.run(py, |w| Ok(w.shape()))?)?;
+        Ok(Shard { world, controllers, streams, episodes, threads })
+    }
 }
 
 /// The exact values of `controllers` (JSON text, as for [`controller_values`]) on a tabular

@@ -341,9 +341,11 @@ fn horizons_and_batches_beyond_the_memory_are_refused_before_allocating() {
     assert!(matches!(e, Error::Memory { .. }), "{e}");
 }
 
-/// A small sampled controller search's settings.
+/// A small sampled controller search's settings; the decisions refitted from the elite, as on
+/// the engine's ring, whose steps have no rewards of their own (tests/credit.rs has the credit).
 fn search(threads: usize) -> ceworld::ControllerConfig {
     ceworld::ControllerConfig {
+        credit: ceworld::ce::controller::Credit::Elite,
         nodes: 3,
         samples: 60,
         rho: 0.1,

@@ -81,6 +81,7 @@ fn every_controller_setting_is_set_by_its_name() {
         memory: ceworld::ce::controller::Memory::Registers,
         registers: 5,
         register_size: 6,
+        credit: ceworld::ce::controller::Credit::Elite,
     });
     every_setting_is_set_by_its_name(&ControllerConfig::default());
 }

@@ -22,6 +22,10 @@ pub(crate) struct ControllerArgs {
     /// 0.02 on exact values, 0.05 on sampled ones].
     #[arg(long)]
     rho: Option<f64>,
+    /// Smoothing alpha in (0, 1]: p := alpha*(refit law) + (1 - alpha)*p [default: 0.1 on
+    /// exact values, 0.25 on sampled ones].
+    #[arg(long)]
+    smoothing: Option<f64>,
     /// How each controller is valued: "exact" (a tabular world, the default there) or "sampled"
     /// (episodes on common random numbers: the default on every other world).
     #[arg(long, value_parser = parse_value_kind, value_name = "exact|sampled")]
@@ -63,6 +67,7 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
         *config = ControllerConfig {
             samples: args.samples.unwrap_or(config.samples),
             rho: args.rho.unwrap_or(config.rho),
+            smoothing: args.smoothing.unwrap_or(config.smoothing),
             template: args.template.unwrap_or(config.template),
             decisions: args.decisions.unwrap_or(config.decisions),
             memoryless_patience: args.memoryless_patience.unwrap_or(config.memoryless_patience),

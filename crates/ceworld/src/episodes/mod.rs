@@ -3,7 +3,9 @@
 //! ([`outside`]). The optimiser, the evaluation and policy files see only this; one episode of
 //! a world run by the engine is [`run`].
 
+pub mod credit;
 pub mod outside;
+mod place;
 pub mod run;
 
 use rayon::prelude::*;
@@ -16,6 +18,7 @@ use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream, stream_key};
 use crate::world::World;
 use crate::world::pomdp::PomdpWorld;
+use credit::StepCredit;
 use run::{run_controller, run_recorded, run_with};
 
 /// The random streams of a set of episodes: episode `k` draws from `(seed, purpose, iteration, k)`.
@@ -84,6 +87,21 @@ pub trait Episodes: Sync {
         episodes: usize,
         values: &mut [f64],
     ) -> Result<()>;
+    /// Runs as [`Episodes::run_controllers`] and, where an episode's value is the discounted sum
+    /// of its steps' rewards, adds each step's credit to `credit` ([`credit`]) and returns true;
+    /// elsewhere (by default) leaves `credit` as it is and returns false.
+    fn run_controllers_credited(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> Result<bool> {
+        let _ = credit;
+        self.run_controllers(controllers, streams, episodes, values).map(|()| false)
+    }
+
     /// What may stop these episodes from outside, if anything: where a stop is asked, the runs
     /// return [`crate::Error::Interrupted`] (a world outside the engine between two steps, one
     /// run by it between two calls).
@@ -205,6 +223,18 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
     ) -> Result<()> {
         self.interrupt.check()?;
         self.episodes.run_controllers(controllers, streams, episodes, values)
+    }
+
+    fn run_controllers_credited(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> Result<bool> {
+        self.interrupt.check()?;
+        self.episodes.run_controllers_credited(controllers, streams, episodes, values, credit)
     }
 
     fn interrupt(&self) -> Option<&Interrupt> {

@@ -15,6 +15,8 @@ use serde_json::Value;
 
 use crate::control::Interrupt;
 use crate::episodes::check_fits;
+use crate::episodes::credit::StepCredit;
+use crate::episodes::place::{Place, label};
 use crate::episodes::run::Rollout;
 use crate::episodes::{Batch, Episodes, Shape, Streams};
 use crate::error::{Error, Result};
@@ -110,6 +112,11 @@ pub trait BatchWorld: Send {
     fn discount(&self) -> f64 {
         1.0
     }
+    /// Whether [`BatchWorld::score`] is the default one, the discounted sum of the steps'
+    /// rewards: what credit within episodes needs ([`crate::episodes::credit`]).
+    fn additive(&self) -> bool {
+        true
+    }
     /// The value `V` of a finished episode: by default the sum of its rewards, discounted by
     /// [`BatchWorld::discount`] (`r_1 + γ r_2 + γ² r_3 + ...`).
     fn score(&mut self, episode: &Recorded<'_>) -> Result<f64> {
@@ -183,7 +190,7 @@ impl<B: BatchWorld> Lockstep<B> {
         first: usize,
         out: BatchOut<'_>,
     ) -> Result<()> {
-        let BatchOut { values, records, lengths } = out;
+        let BatchOut { values, records, lengths, step_rewards } = out;
         let Shape { observations: n_obs, horizon, .. } = self.shape;
         let width = deciders.width();
         let stride = horizon * width;
@@ -202,7 +209,6 @@ impl<B: BatchWorld> Lockstep<B> {
         let mut rewards = vec![0.0f64; n];
         let mut done = vec![false; n];
         let mut alive = vec![true; n];
-        let mut step_rewards = vec![0.0f64; n * horizon];
         lengths.fill(0);
         // Every observation of a running episode is checked, the one that comes with its end too
         // (unused, but a value out of range is the world's bug): `call` is 0 for reset, t for step t.
@@ -290,12 +296,13 @@ impl<B: BatchWorld> Lockstep<B> {
     }
 }
 
-/// Where a batch writes its episodes: values, records (`horizon · width` numbers each) and the
-/// steps each ran.
+/// Where a batch writes its episodes: values, records (`horizon · width` numbers each), the
+/// steps each ran and their rewards (`horizon` each).
 struct BatchOut<'a> {
     values: &'a mut [f64],
     records: &'a mut [u16],
     lengths: &'a mut [u32],
+    step_rewards: &'a mut [f64],
 }
 
 /// What chooses the decisions of each episode of a batch: a policy (its own random stream per
@@ -417,6 +424,7 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
             (own_records, own_lengths) = (vec![0u16; m * stride], vec![0u32; m]);
             (&mut own_records[..], &mut own_lengths[..], false)
         };
+        let mut step_rewards = vec![0.0f64; m * self.shape.horizon];
         let mut start = 0;
         while start < n {
             let k = first + start;
@@ -427,7 +435,8 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
             } else {
                 (&mut records[..(end - start) * stride], &mut lengths[..end - start])
             };
-            let out = BatchOut { values: &mut batch.values[start..end], records, lengths };
+            let step_rewards = &mut step_rewards[..(end - start) * self.shape.horizon];
+            let out = BatchOut { values: &mut batch.values[start..end], records, lengths, step_rewards };
             let (world, seed) = (&mut *world, Self::world_seed(streams, chunk as u64));
             B::on_thread(|| self.run_batch(world, &deciders, seed, k, out))?;
             start = end;
@@ -449,13 +458,45 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         episodes: usize,
         values: &mut [f64],
     ) -> Result<()> {
+        self.controllers(controllers, streams, episodes, values, None).map(|_| ())
+    }
+
+    fn run_controllers_credited(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> Result<bool> {
+        self.controllers(controllers, streams, episodes, values, Some(credit))
+    }
+}
+
+impl<B: BatchWorld> Lockstep<B> {
+    /// [`Episodes::run_controllers`], adding each step's credit to `credit` where one is given
+    /// and the world's value is the discounted sum of its rewards (then true).
+    fn controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        mut credit: Option<&mut StepCredit>,
+    ) -> Result<bool> {
         let mut world = self.lock();
-        let deciders = ControllerDeciders { controllers, episodes, n_obs: self.shape.observations, streams };
-        let stride = self.shape.horizon * deciders.width();
+        let (n_obs, horizon) = (self.shape.observations, self.shape.horizon);
+        if !world.additive() {
+            credit = None;
+        }
+        let gamma = world.discount();
+        let deciders = ControllerDeciders { controllers, episodes, n_obs, streams };
+        let stride = horizon * deciders.width();
         let per_batch = if episodes <= self.batch { episodes * (self.batch / episodes) } else { self.batch };
         let m = per_batch.min(values.len());
         self.check_batch(m, 2 * stride as u64 + 4)?;
         let (mut records, mut lengths) = (vec![0u16; m * stride], vec![0u32; m]);
+        let mut step_rewards = vec![0.0f64; m * horizon];
         let mut start = 0;
         while start < values.len() {
             let (chunk, end) = if episodes <= self.batch {
@@ -468,12 +509,25 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
                 values: &mut values[start..end],
                 records: &mut records[..(end - start) * stride],
                 lengths: &mut lengths[..end - start],
+                step_rewards: &mut step_rewards[..(end - start) * horizon],
             };
             let (world, seed) = (&mut *world, Self::world_seed(streams, chunk));
             B::on_thread(|| self.run_batch(world, &deciders, seed, start, out))?;
+            if let Some(credit) = credit.as_deref_mut() {
+                for i in 0..end - start {
+                    let (c, steps) = ((start + i) / episodes, lengths[i] as usize);
+                    let episode = Recorded {
+                        record: &records[i * stride..i * stride + steps * deciders.width()],
+                        width: deciders.width(),
+                        rewards: &step_rewards[i * horizon..i * horizon + steps],
+                    };
+                    let steps = episode.observations().zip(episode.rewards.iter().copied());
+                    credit.add(c, &controllers[c], n_obs, steps, gamma, values[start + i]);
+                }
+            }
             start = end;
         }
-        Ok(())
+        Ok(credit.is_some())
     }
 }
 
@@ -491,7 +545,9 @@ pub fn rollout<B: BatchWorld>(world: &Lockstep<B>, policy: &Hhmm, seed: u64, epi
     let (k, chunk) = (episode as usize, episode / world.batch as u64);
     let guard = &mut *guard;
     let deciders = PolicyDeciders { policy, streams };
-    let out = BatchOut { values: &mut value, records: &mut record, lengths: &mut length };
+    let mut step_rewards = vec![0.0; world.shape.horizon];
+    let out =
+        BatchOut { values: &mut value, records: &mut record, lengths: &mut length, step_rewards: &mut step_rewards };
     let seed = Lockstep::<B>::world_seed(streams, chunk);
     B::on_thread(|| world.run_batch(guard, &deciders, seed, k, out))?;
     record.truncate(length[0] as usize * width);
@@ -505,67 +561,4 @@ pub fn rollout<B: BatchWorld>(world: &Lockstep<B>, policy: &Hhmm, seed: u64, epi
         levels: policy.levels().len(),
         reward: value[0],
     })
-}
-
-/// How errors name a world: its `"id"` (a Gymnasium environment's) or its `"class"`.
-fn label(description: &Value) -> String {
-    let text = |key: &str| description.get(key).and_then(Value::as_str).map(str::to_owned);
-    text("id").or_else(|| text("class")).map_or_else(|| format!("world {NAME:?}"), |c| format!("world {c}"))
-}
-
-/// Where something went wrong: which world, which episode (or batch) of which stream, which
-/// step (from 1; 0 is the reset).
-struct Place {
-    world: String,
-    streams: Streams,
-    episodes: (usize, usize),
-    episode: usize,
-    /// Episodes per controller, where the episodes are those of controllers.
-    per_controller: Option<usize>,
-    step: usize,
-}
-
-impl Place {
-    fn stream(&self) -> String {
-        match self.streams.purpose {
-            Purpose::Optimise | Purpose::Controllers => format!("iteration {}", self.streams.iteration),
-            other => format!("{other:?}").to_lowercase(),
-        }
-    }
-
-    /// Episode `k`, or episode `k mod K` of controller `k div K`.
-    fn episode(&self, k: usize) -> String {
-        match self.per_controller {
-            Some(per) => format!("controller {}, episode {}", k / per, k % per),
-            None => format!("episode {k}"),
-        }
-    }
-
-    /// An error of one episode.
-    fn error(&self, message: &str) -> Error {
-        Error::World(format!(
-            "{}, {} ({}), {}: {message}",
-            self.world,
-            self.episode(self.episode),
-            self.stream(),
-            self.call()
-        ))
-    }
-
-    /// The call that returned the value: `reset`, or `step k` (the k-th, from 1).
-    fn call(&self) -> String {
-        if self.step == 0 { "reset".to_string() } else { format!("step {}", self.step) }
-    }
-
-    /// An error of a call for the whole batch.
-    fn wrap(&self, error: &Error) -> Error {
-        let (a, b) = self.episodes;
-        let episodes = match self.per_controller {
-            Some(_) if b == a + 1 => self.episode(a),
-            Some(_) => format!("{} to {}", self.episode(a), self.episode(b - 1)),
-            None if b == a + 1 => format!("episode {a}"),
-            None => format!("episodes {a}..{b}"),
-        };
-        Error::World(format!("{}, {episodes} ({}), {}: {error}", self.world, self.stream(), self.call()))
-    }
 }

@@ -74,12 +74,43 @@ impl Decisions {
     }
 }
 
+/// What refits the decision laws of a search on sampled values (model §8).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Credit {
+    /// Each step of every controller's episodes, where a world's value is the discounted sum of
+    /// its steps' rewards: a decision row's law moves onto the decision whose steps had the
+    /// highest mean value still to come ([`crate::episodes::credit`]); elsewhere the elite.
+    Steps,
+    /// The elite controllers' decisions, as the successor laws.
+    Elite,
+}
+
+impl Credit {
+    /// `"steps"` or `"elite"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Credit::Steps => "steps",
+            Credit::Elite => "elite",
+        }
+    }
+
+    /// The credit named `name`, or an error listing both.
+    pub fn parse(name: &str) -> Result<Credit> {
+        match name {
+            "steps" => Ok(Credit::Steps),
+            "elite" => Ok(Credit::Elite),
+            other => Err(Error::invalid("credit", format!("{other:?} (expected \"steps\" or \"elite\")"))),
+        }
+    }
+}
+
 /// The settings of a controller search; `Default` gives settings that suit the small files of
 /// `data/pomdp/` (model §8), [`ControllerConfig::defaults_for`] those of each kind of value. The
 /// one home of each setting: its doc is the CLI's help (`ceworld controller --help`), its name
 /// the Python keyword ([`Settings::set`]) and the checkpoint's and policy file's key. The
-/// settings whose default depends on the kind of value (`samples`, `rho`, `template`,
-/// `decisions`, `memoryless_patience`, `memory`) are the CLI's own options.
+/// settings whose default depends on the kind of value (`samples`, `rho`, `smoothing`,
+/// `template`, `decisions`, `memoryless_patience`, `memory`) are the CLI's own options.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::Args))]
 pub struct ControllerConfig {
@@ -93,7 +124,7 @@ pub struct ControllerConfig {
     #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().rho))]
     pub rho: f64,
     /// Smoothing alpha in (0, 1]: p := alpha*(elite frequency) + (1 - alpha)*p.
-    #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().smoothing))]
+    #[cfg_attr(feature = "cli", arg(skip = ControllerConfig::default().smoothing))]
     pub smoothing: f64,
     /// Stop after this many iterations in a row without progress: neither a better controller
     /// nor a higher elite threshold.
@@ -201,11 +232,23 @@ pub struct ControllerConfig {
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().register_size))]
     #[serde(default = "default_register_size")]
     pub register_size: usize,
+    /// What refits the decision laws on sampled values: `steps` (credit within episodes: each
+    /// decision row moves onto the decision whose steps had the most value still to come, over
+    /// every controller's episodes, where a world's value is the sum of its steps' rewards;
+    /// elsewhere the elite) or `elite` (the elite controllers' decisions).
+    #[cfg_attr(feature = "cli", arg(long, value_parser = |t: &str| Credit::parse(t).map_err(|e| e.to_string()), default_value = "steps", value_name = "steps|elite"))]
+    #[serde(default = "elite")]
+    pub credit: Credit,
 }
 
 /// The decisions of a checkpoint written before they could be chosen.
 fn moore() -> Decisions {
     Decisions::Moore
+}
+
+/// The credit of a checkpoint written before it could be chosen.
+fn elite() -> Credit {
+    Credit::Elite
 }
 
 /// The memory of a checkpoint written before it could be chosen.
@@ -227,7 +270,10 @@ impl Settings for ControllerConfig {
     fn set(&mut self, s: &Setting<'_>) -> Result<()> {
         // `None` leaves a setting whose default depends on the kind of value at that default.
         if s.value == Given::Nothing
-            && matches!(s.name, "samples" | "rho" | "template" | "decisions" | "memoryless_patience" | "memory")
+            && matches!(
+                s.name,
+                "samples" | "rho" | "smoothing" | "template" | "decisions" | "memoryless_patience" | "memory"
+            )
         {
             return Ok(());
         }
@@ -259,6 +305,7 @@ impl Settings for ControllerConfig {
             "memory" => self.memory = s.choice(Memory::parse)?,
             "registers" => self.registers = s.count()?,
             "register_size" => self.register_size = s.count()?,
+            "credit" => self.credit = s.choice(Credit::parse)?,
             other => return Err(self.unknown(other)),
         }
         Ok(())
@@ -295,14 +342,15 @@ impl Default for ControllerConfig {
             memory: Memory::Nodes,
             registers: 3,
             register_size: 4,
+            credit: Credit::Steps,
         }
     }
 }
 
 impl ControllerConfig {
     /// The defaults of a search on `kind` values: [`Default`]'s on exact values; on sampled ones
-    /// `N = 200`, `ρ = 0.05` and the `mixed` template (with `K = 20` and 500 selection
-    /// episodes, the defaults of every search, used by sampled ones alone), and Mealy decisions
+    /// `N = 200`, `ρ = 0.05`, `α = 0.25` and the `mixed` template (with `K = 20` and 500
+    /// selection episodes, the defaults of every search, used by sampled ones alone), Mealy decisions
     /// after a memoryless stage, so that the memory only adds to the best memoryless policy,
     /// and runs that alternate between flat nodes and a shift register: chosen by measurement
     /// (model §8).
@@ -312,6 +360,7 @@ impl ControllerConfig {
             ValueKind::Sampled => ControllerConfig {
                 samples: 200,
                 rho: 0.05,
+                smoothing: 0.25,
                 template: Template::Mixed,
                 decisions: Decisions::Mealy,
                 memoryless_patience: 10,

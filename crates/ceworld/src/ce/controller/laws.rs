@@ -142,15 +142,24 @@ impl Laws {
         if self.mealy { &c.on } else { &c.act }
     }
 
-    /// `p := α·frequency + (1 − α)·p` over the elite.
-    pub(super) fn refit(&mut self, elite: &[&Controller], alpha: f64) {
+    /// `p := α·frequency + (1 − α)·p` over the elite; a decision row with a `best` decision
+    /// (credit within episodes, model §8) moves its `α` onto that decision instead.
+    pub(super) fn refit(&mut self, elite: &[&Controller], best: Option<&[Option<u32>]>, alpha: f64) {
         let weight = alpha / elite.len() as f64;
+        let credited = |r: usize| best.and_then(|b| b[r]);
         for p in self.act.iter_mut().chain(self.next.iter_mut()) {
             *p *= 1.0 - alpha;
         }
+        for (r, row) in self.act.chunks_mut(self.n_actions).enumerate() {
+            if let Some(a) = credited(r) {
+                row[a as usize] += alpha;
+            }
+        }
         for c in elite {
             for (r, &a) in self.decisions(c).iter().enumerate() {
-                self.act[r * self.n_actions + a as usize] += weight;
+                if credited(r).is_none() {
+                    self.act[r * self.n_actions + a as usize] += weight;
+                }
             }
             if self.registers == 0 {
                 for (row, &q2) in c.next.iter().enumerate() {
@@ -397,9 +406,24 @@ mod tests {
         assert!(c.is_mealy() && c.on.len() == 5 * y1 && c.nodes() == 5);
         c.check(y1, a).unwrap();
         let mut refit = laws.clone();
-        refit.refit(&[&c], 1.0);
+        refit.refit(&[&c], None, 1.0);
         assert_eq!(refit, Laws::around(&c, a, y1, 1.0));
         assert!((refit.concentration() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_credited_row_moves_onto_its_best_decision_and_the_others_onto_the_elite() {
+        // Two Moore nodes, three decisions; the elite decides 0 in both nodes; row 1 is
+        // credited with decision 2, row 0 has no credit.
+        let mut laws = Laws::uniform(2, 3, 2, false);
+        let elite = Controller::moore(vec![0, 0], vec![0, 1, 1, 0]);
+        laws.refit(&[&elite], Some(&[None, Some(2)]), 0.25);
+        let third = 0.75 / 3.0;
+        assert_eq!(laws.act, vec![third + 0.25, third, third, third, third, third + 0.25]);
+        // The successor laws follow the elite either way.
+        let mut plain = Laws::uniform(2, 3, 2, false);
+        plain.refit(&[&elite], None, 0.25);
+        assert_eq!((plain.next, &plain.act[..3]), (laws.next, &laws.act[..3]));
     }
 
     #[test]
@@ -430,7 +454,7 @@ mod tests {
             }
             // A whole refit onto it gives one-hot laws that draw it again.
             let mut refit = laws.clone();
-            refit.refit(&[&c], 1.0);
+            refit.refit(&[&c], None, 1.0);
             assert!((refit.concentration() - 1.0).abs() < 1e-12);
             assert_eq!(refit.draw(&mut rng), c);
         }

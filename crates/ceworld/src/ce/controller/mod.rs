@@ -23,6 +23,7 @@ use rayon::prelude::*;
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::StopReason;
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
+use crate::episodes::credit::StepCredit;
 use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
@@ -34,7 +35,7 @@ use crate::rng::{Purpose, restart_seed, stream};
 use crate::world::pomdp::PomdpWorld;
 
 pub use config::{
-    ControllerConfig, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
+    ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
 };
 use laws::Laws;
 pub use outcome::{ControllerIteration, ControllerOutcome};
@@ -248,28 +249,31 @@ impl Search<'_> {
         seed: u64,
         iteration: usize,
         over_time: &(dyn Fn() -> bool + Sync),
-    ) -> Result<Vec<Option<(f64, Controller)>>> {
+    ) -> Result<(Vec<Option<Scored>>, Option<StepCredit>)> {
         let samples = self.config.samples;
         let draw = |k: usize| match &self.start {
             Some(start) if iteration == 0 && k == 0 => start.clone(),
             _ => laws.draw(&mut stream(seed, Purpose::Optimise, iteration as u64, k as u64)),
         };
         self.pool.install(|| match &self.values {
-            Values::Exact(exact) => Ok((0..samples)
-                .into_par_iter()
-                .map_init(Scratch::default, |scratch, k| {
-                    if k > 0 && over_time() {
-                        return None;
-                    }
-                    let c = draw(k);
-                    Some((self.seen.value(&c, || exact.value(&c, scratch)), c))
-                })
-                .collect()),
+            Values::Exact(exact) => Ok((
+                (0..samples)
+                    .into_par_iter()
+                    .map_init(Scratch::default, |scratch, k| {
+                        if k > 0 && over_time() {
+                            return None;
+                        }
+                        let c = draw(k);
+                        Some((self.seen.value(&c, || exact.value(&c, scratch)), c))
+                    })
+                    .collect(),
+                None,
+            )),
             Values::ExactElsewhere(_, remote) => {
                 // One batch: the time limit is checked between iterations only.
                 let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
                 let values = remote.exact_values(&controllers, self.config.tolerance)?;
-                Ok(values.into_iter().zip(controllers).map(Some).collect())
+                Ok((values.into_iter().zip(controllers).map(Some).collect(), None))
             }
             Values::Sampled(world) => {
                 let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
@@ -279,18 +283,29 @@ impl Search<'_> {
                 // between two (the first always counts) and the values are the same as in one.
                 let group = if world.remote().is_some() { samples } else { group_size(world.slice(), k) };
                 let mut valued = Vec::with_capacity(samples);
+                let rows = StepCredit::rows_of(&controllers[0]);
+                let mut credit = (self.config.credit == Credit::Steps).then(|| StepCredit::new(0, rows));
                 for (g, chunk) in controllers.chunks(group).enumerate() {
                     if g > 0 && over_time() {
                         break;
                     }
                     let mut values = vec![0.0; chunk.len() * k];
-                    world.run_controllers(chunk, streams, k, &mut values)?;
+                    if let Some(all) = credit.as_mut() {
+                        let mut part = StepCredit::new(chunk.len(), rows);
+                        if world.run_controllers_credited(chunk, streams, k, &mut values, &mut part)? {
+                            all.append(part);
+                        } else {
+                            credit = None;
+                        }
+                    } else {
+                        world.run_controllers(chunk, streams, k, &mut values)?;
+                    }
                     self.ran(values.len());
                     let means = values.chunks(k).map(|v| mean(v.iter().copied()));
                     valued.extend(means.zip(chunk.iter().cloned()).map(Some));
                 }
                 valued.resize(samples, None);
-                Ok(valued)
+                Ok((valued, credit))
             }
         })
     }
@@ -461,21 +476,26 @@ impl Search<'_> {
     /// The iteration's controllers drawn from `laws` and valued, best first, with the candidate
     /// for the best so far.
     fn value(&self, laws: &Laws, seed: u64, iteration: usize, over_time: &(dyn Fn() -> bool + Sync)) -> Result<Draws> {
-        let drawn = self.draw_and_value(laws, seed, iteration, over_time)?;
+        let (drawn, credit) = self.draw_and_value(laws, seed, iteration, over_time)?;
         let cut = drawn.iter().any(Option::is_none);
         let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
         let mut order: Vec<usize> = (0..drawn.len()).collect();
         // Highest value first; equal values keep their draw order (deterministic).
         order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
         let candidate = self.candidate(&drawn, &order)?;
-        Ok(Draws { iteration, drawn, cut, order, candidate })
+        // Each decision row's best decision by the credit of its steps, where there is one.
+        let best = credit.map(|credit| {
+            let decisions = drawn.iter().map(|(_, c)| if c.is_mealy() { &c.on[..] } else { &c.act[..] });
+            credit.best(decisions.enumerate(), self.n_actions)
+        });
+        Ok(Draws { iteration, drawn, cut, order, candidate, best })
     }
 
     /// Learns from an iteration's controllers: the best so far, progress, the laws refitted to
     /// the elite, an escape where patience ran out; the iteration's record.
     fn learn(&self, state: &mut SearchState, drawn: &Draws, restart: usize, seconds: f64) -> ControllerIteration {
         let config = self.config;
-        let Draws { iteration, drawn, cut, order, candidate } = drawn;
+        let Draws { iteration, drawn, cut, order, candidate, best } = drawn;
         let elite_size = config.elite_count().min(drawn.len());
         let top = order[0];
         let threshold = drawn[order[elite_size - 1]].0;
@@ -507,7 +527,7 @@ impl Search<'_> {
         if !cut {
             // A cut iteration's elite would favour whichever controllers came first.
             let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
-            state.laws.refit(&elite, config.smoothing);
+            state.laws.refit(&elite, best.as_deref(), config.smoothing);
         }
         // Patience run out with escapes left: mix in the uniform law, or else grow a node around
         // the best controller, and go on.
@@ -559,6 +579,9 @@ impl Search<'_> {
     }
 }
 
+/// A controller with its value.
+type Scored = (f64, Controller);
+
 /// One iteration's controllers with their values, and the candidate for the best so far.
 struct Draws {
     iteration: usize,
@@ -570,4 +593,7 @@ struct Draws {
     order: Vec<usize>,
     /// (value, index in `drawn`).
     candidate: (f64, usize),
+    /// Each decision row's best decision by the credit of its steps (sampled values with
+    /// [`Credit::Steps`] on a world whose value sums its steps' rewards).
+    best: Option<Vec<Option<u32>>>,
 }

@@ -1,0 +1,179 @@
+//! Credit within episodes for the decisions of controllers (model §8): where an episode's value
+//! is the discounted sum of its steps' rewards, the decision of step `t` can change only the
+//! part still to come, `V − (r_1 + γ r_2 + … + γ^{t−2} r_{t−1})`. Summed per decision row
+//! (the node of a Moore machine, the node and observation of a Mealy machine) it tells which
+//! decision pays in that row, from every step of every controller's episodes rather than from
+//! a ranking of whole controllers.
+
+use crate::policy::controller::Controller;
+
+/// The credit of the decision rows of a set of controllers (all of one shape): for controller
+/// `c` and its row `r`, the steps that decided in that row (`visits[c·rows + r]`) and the sum
+/// over them of the value still to come (`sums[c·rows + r]`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepCredit {
+    /// Decision rows per controller.
+    pub rows: usize,
+    /// Steps per (controller, row).
+    pub visits: Vec<u32>,
+    /// Summed value still to come per (controller, row).
+    pub sums: Vec<f64>,
+}
+
+impl StepCredit {
+    /// No credit yet for `controllers` controllers of `rows` decision rows.
+    pub fn new(controllers: usize, rows: usize) -> StepCredit {
+        StepCredit { rows, visits: vec![0; controllers * rows], sums: vec![0.0; controllers * rows] }
+    }
+
+    /// The decision rows of `c`: one per node (Moore), one per node and observation (Mealy).
+    pub fn rows_of(c: &Controller) -> usize {
+        if c.is_mealy() { c.on.len() } else { c.act.len() }
+    }
+
+    /// Adds one episode of controller `c` (index `index` in the set), of value `value`: its
+    /// steps' (observation, reward), the rewards discounted by `gamma`. The nodes are the
+    /// controller's own (it draws none): they are run again here.
+    pub fn add(
+        &mut self,
+        index: usize,
+        c: &Controller,
+        n_obs: usize,
+        steps: impl Iterator<Item = (usize, f64)>,
+        gamma: f64,
+        value: f64,
+    ) {
+        let base = index * self.rows;
+        let (mut node, mut before, mut factor) = (0u32, 0.0, 1.0);
+        for (y, r) in steps {
+            let row = if c.is_mealy() { node as usize * n_obs + y } else { c.next[node as usize * n_obs + y] as usize };
+            c.step(&mut node, y, n_obs);
+            self.visits[base + row] += 1;
+            self.sums[base + row] += value - before;
+            before += factor * r;
+            factor *= gamma;
+        }
+    }
+
+    /// Numbers per controller of [`StepCredit::to_blocks`]: whether credited, the values of its
+    /// `episodes` episodes, its rows' visits, their sums.
+    pub fn block(episodes: usize, rows: usize) -> usize {
+        1 + episodes + 2 * rows
+    }
+
+    /// Values and credit as one list of numbers, controller after controller
+    /// ([`StepCredit::block`]): what a backend's worker answers (model §9).
+    pub fn to_blocks(&self, credited: bool, values: &[f64], episodes: usize) -> Vec<f64> {
+        let rows = self.rows;
+        let mut out = Vec::with_capacity(values.len() / episodes.max(1) * StepCredit::block(episodes, rows));
+        for (c, v) in values.chunks(episodes).enumerate() {
+            out.push(f64::from(u8::from(credited)));
+            out.extend_from_slice(v);
+            out.extend(self.visits[c * rows..(c + 1) * rows].iter().map(|&n| f64::from(n)));
+            out.extend_from_slice(&self.sums[c * rows..(c + 1) * rows]);
+        }
+        out
+    }
+
+    /// Reads [`StepCredit::to_blocks`]'s numbers into `values` and adds their credit to this;
+    /// whether every controller was credited.
+    pub fn add_blocks(&mut self, blocks: &[f64], values: &mut [f64], episodes: usize) -> bool {
+        let rows = self.rows;
+        let mut credited = true;
+        for (c, b) in blocks.chunks(StepCredit::block(episodes, rows)).enumerate() {
+            credited &= b[0] == 1.0;
+            values[c * episodes..(c + 1) * episodes].copy_from_slice(&b[1..=episodes]);
+            for r in 0..rows {
+                self.visits[c * rows + r] += b[1 + episodes + r] as u32;
+                self.sums[c * rows + r] += b[1 + episodes + rows + r];
+            }
+        }
+        credited
+    }
+
+    /// `other`'s controllers after these.
+    pub fn append(&mut self, other: StepCredit) {
+        debug_assert_eq!(self.rows, other.rows);
+        self.visits.extend(other.visits);
+        self.sums.extend(other.sums);
+    }
+
+    /// For each decision row, the decision whose steps had the highest mean credit over all
+    /// `controllers` (those these credits are of, in order; `decisions` reads a controller's
+    /// decision rows) among the `n_actions` decisions; `None` where no step decided in the row.
+    /// Equal means keep the lower decision.
+    pub fn best<'c>(
+        &self,
+        controllers: impl Iterator<Item = (usize, &'c [u32])>,
+        n_actions: usize,
+    ) -> Vec<Option<u32>> {
+        let mut visits = vec![0u64; self.rows * n_actions];
+        let mut sums = vec![0.0; self.rows * n_actions];
+        for (c, decisions) in controllers {
+            for (r, &a) in decisions.iter().enumerate() {
+                let at = r * n_actions + a as usize;
+                visits[at] += u64::from(self.visits[c * self.rows + r]);
+                sums[at] += self.sums[c * self.rows + r];
+            }
+        }
+        (0..self.rows)
+            .map(|r| {
+                let mean = |a: usize| sums[r * n_actions + a] / visits[r * n_actions + a] as f64;
+                let visited = (0..n_actions).filter(|&a| visits[r * n_actions + a] > 0);
+                visited
+                    .fold(None, |b: Option<usize>, a| if b.is_none_or(|b| mean(a) > mean(b)) { Some(a) } else { b })
+                    .map(|a| a as u32)
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_step_is_credited_with_what_is_still_to_come_in_its_row() {
+        // Two observations; a Mealy machine that moves to node y after y: node 0 on y = 1
+        // (row 1), then node 1 on y = 0 (row 2), then node 0 on y = 1 (row 1) again.
+        let c = Controller::mealy(vec![0, 1, 1, 0], vec![0, 1, 0, 1], 2);
+        let mut credit = StepCredit::new(2, StepCredit::rows_of(&c));
+        let rewards = [1.0, 2.0, 4.0];
+        let value = 1.0 + 0.5 * 2.0 + 0.25 * 4.0;
+        credit.add(1, &c, 2, [1, 0, 1].into_iter().zip(rewards), 0.5, value);
+        assert_eq!(credit.visits, vec![0, 0, 0, 0, 0, 2, 1, 0]);
+        // Row 1: the whole value (3), then what the last step still pays (3 − 1 − 1); row 2: 3 − 1.
+        assert_eq!(credit.sums, vec![0.0, 0.0, 0.0, 0.0, 0.0, 4.0, 2.0, 0.0]);
+        // A Moore machine's row is the node it moves to: 0 → 1 → 0 on these observations.
+        let moore = Controller::moore(vec![0, 1], vec![1, 0, 0, 1]);
+        let mut credit = StepCredit::new(1, StepCredit::rows_of(&moore));
+        credit.add(0, &moore, 2, [(0, 1.0), (0, 1.0)].into_iter(), 1.0, 2.0);
+        assert_eq!((credit.visits, credit.sums), (vec![1, 1], vec![1.0, 2.0]));
+    }
+
+    #[test]
+    fn the_best_decision_of_a_row_has_the_highest_mean_over_every_controller() {
+        // Three controllers of two rows, three decisions: row 0 decided 1, 1, 2 (means 2 and
+        // 3, so 2); row 1 decided 0, 0, 0 (1 visit), and never visited by the third.
+        let credit = StepCredit { rows: 2, visits: vec![2, 1, 2, 0, 1, 0], sums: vec![4.0, 1.0, 4.0, 0.0, 3.0, 0.0] };
+        let decisions: [&[u32]; 3] = [&[1, 0], &[1, 0], &[2, 0]];
+        assert_eq!(credit.best(decisions.into_iter().enumerate(), 3), vec![Some(2), Some(0)]);
+        let mut two = StepCredit::new(1, 2);
+        two.append(StepCredit { rows: 2, visits: vec![0, 0], sums: vec![0.0, 0.0] });
+        assert_eq!(two.best([&[0, 1][..], &[1, 1]].into_iter().enumerate(), 2), vec![None, None]);
+        assert_eq!(two.visits.len(), 4);
+    }
+
+    #[test]
+    fn values_and_credit_travel_as_blocks_and_come_back_the_same() {
+        let credit = StepCredit { rows: 2, visits: vec![1, 2, 3, 4], sums: vec![0.5, -1.0, 2.5, 0.0] };
+        let values = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let blocks = credit.to_blocks(true, &values, 3);
+        assert_eq!(blocks.len(), 2 * StepCredit::block(3, 2));
+        assert_eq!(&blocks[..8], &[1.0, 1.0, 2.0, 3.0, 1.0, 2.0, 0.5, -1.0]);
+        let (mut back, mut read) = (StepCredit::new(2, 2), [0.0; 6]);
+        assert!(back.add_blocks(&blocks, &mut read, 3));
+        assert_eq!((back, read), (credit.clone(), values));
+        assert!(!StepCredit::new(2, 2).add_blocks(&credit.to_blocks(false, &values, 3), &mut read, 3));
+    }
+}
