@@ -2,10 +2,10 @@
 on memory tasks of the engine, numpy and POPGym (through Gymnasium), at a fixed time each.
 
     python3 benches/sampled_defaults.py [--tasks t-maze repeat-first ...] [--seconds 60]
-        [--settings '{"samples": 1000, "episodes": 100, "select_episodes": 2000}']
+        [--seeds 0 1 2] [--settings '{"samples": 1000, "episodes": 100, "select_episodes": 2000}']
 
-For each task it runs ``optimize_controller(world, time_limit=seconds, threads=1, **settings)``
-and prints a Markdown table: the value on fresh episodes, iterations, the iteration whose
+For each task and seed it runs ``optimize_controller(world, time_limit=seconds, threads=1,
+seed=seed, **settings)`` and prints a Markdown table: the value on fresh episodes, iterations, the iteration whose
 memoryless stage ended (``-`` where none did), the nodes of the policy file, the seconds
 taken and, on POPGym tasks, the environment steps taken (both with the final evaluation, its
 ``eval_episodes`` fresh episodes). POPGym tasks need ``pip install popgym``.
@@ -35,7 +35,8 @@ def _popgym(name: str) -> Callable[[], Any]:
                 STEPS[0] += 1
                 return self.env.step(action)
 
-        return cehmm.PythonWorld(Counted(gym.make(f"popgym-{name}-v0")), horizon=60)
+        # Longer than every Easy game (MultiarmedBandit's 200 steps): each plays to its end.
+        return cehmm.PythonWorld(Counted(gym.make(f"popgym-{name}-v0")), horizon=256)
 
     return make
 
@@ -50,6 +51,11 @@ TASKS: dict[str, Callable[[], Any]] = {
     "HigherLowerEasy": _popgym("HigherLowerEasy"),
     "RepeatFirstEasy": _popgym("RepeatFirstEasy"),
     "RepeatPreviousEasy": _popgym("RepeatPreviousEasy"),
+    "AutoencodeEasy": _popgym("AutoencodeEasy"),
+    "CountRecallEasy": _popgym("CountRecallEasy"),
+    "MultiarmedBanditEasy": _popgym("MultiarmedBanditEasy"),
+    "BattleshipEasy": _popgym("BattleshipEasy"),
+    "MineSweeperEasy": _popgym("MineSweeperEasy"),
 }
 
 
@@ -57,23 +63,26 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tasks", nargs="+", default=list(TASKS)[:6], choices=list(TASKS))
     parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--settings", type=json.loads, default={}, help="more settings, as a JSON object")
     args = parser.parse_args()
     print(f"settings: defaults, {args.settings}; {args.seconds:g} s each, one thread")
-    print("| task | value | iterations | stage ended | nodes | seconds | env steps |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("| task | seed | value | iterations | stage ended | nodes | seconds | env steps |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for name in args.tasks:
-        STEPS[0] = 0
-        start = time.perf_counter()
-        result = cehmm.optimize_controller(
-            TASKS[name](), time_limit=args.seconds, threads=1, progress=False, **args.settings
-        )
-        seconds = time.perf_counter() - start
-        history = result.history
-        ended = [i for i, w in enumerate(history["widened"]) if w]
-        row = [name, f"{result.value:.4f}", len(history["mean"]), ended[0] if ended else "-"]
-        steps = f"{STEPS[0]:,}" if STEPS[0] else "-"
-        print("| " + " | ".join(str(x) for x in [*row, result.policy.levels[0], f"{seconds:.1f}", steps]) + " |")
+        for seed in args.seeds:
+            STEPS[0] = 0
+            start = time.perf_counter()
+            result = cehmm.optimize_controller(
+                TASKS[name](), time_limit=args.seconds, threads=1, seed=seed, progress=False, **args.settings
+            )
+            seconds = time.perf_counter() - start
+            history = result.history
+            ended = [i for i, w in enumerate(history["widened"]) if w]
+            row = [name, seed, f"{result.value:.4f}", len(history["mean"]), ended[0] if ended else "-"]
+            steps = f"{STEPS[0]:,}" if STEPS[0] else "-"
+            cells = [*row, result.policy.levels[0], f"{seconds:.1f}", steps]
+            print("| " + " | ".join(str(x) for x in cells) + " |", flush=True)
 
 
 if __name__ == "__main__":

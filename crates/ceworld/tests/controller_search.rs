@@ -275,10 +275,10 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     let whole = ControllerConfig { samples: first.evaluated, time_limit: None, max_iterations: Some(1), ..config };
     let all = optimize_controller(Valued::Sampled(&w), &whole, |_| Flow::Continue).unwrap();
     assert_eq!(all.history[0].record.mean.to_bits(), first.record.mean.to_bits());
-    // The episodes run: K for each controller valued, the 500 selection episodes for each of
-    // the (at most 4, distinct) candidates.
-    let selection = first.episodes - first.evaluated as u64 * 50;
-    assert!(selection % 500 == 0 && (1..=4).contains(&(selection / 500)), "{}", first.episodes);
+    // The episodes run: K for each controller valued, the selection episodes for each of the
+    // (at most 4, distinct) candidates.
+    let (selection, m) = (first.episodes - first.evaluated as u64 * 50, config.select_episodes as u64);
+    assert!(selection % m == 0 && (1..=4).contains(&(selection / m)), "{}", first.episodes);
     assert_eq!(all.history[0].episodes, first.episodes);
 }
 

@@ -78,9 +78,10 @@ impl Decisions {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Credit {
-    /// Each step of every controller's episodes, where a world's value is the discounted sum of
-    /// its steps' rewards: a decision row's law moves onto the decision whose steps had the
-    /// highest mean value still to come ([`crate::episodes::credit`]); elsewhere the elite.
+    /// Each step of every controller's episodes, on a world outside the engine whose value is
+    /// the discounted sum of its steps' rewards: a decision row's law moves onto the decision
+    /// whose steps had the highest mean value still to come ([`crate::episodes::credit`]);
+    /// elsewhere the elite.
     Steps,
     /// The elite controllers' decisions, as the successor laws.
     Elite,
@@ -234,8 +235,9 @@ pub struct ControllerConfig {
     pub register_size: usize,
     /// What refits the decision laws on sampled values: `steps` (credit within episodes: each
     /// decision row moves onto the decision whose steps had the most value still to come, over
-    /// every controller's episodes, where a world's value is the sum of its steps' rewards;
-    /// elsewhere the elite) or `elite` (the elite controllers' decisions).
+    /// every controller's episodes, on a world outside the engine (Python, Gymnasium) whose value
+    /// is the sum of its steps' rewards; on every other world the elite) or `elite` (the elite
+    /// controllers' decisions).
     #[cfg_attr(feature = "cli", arg(long, value_parser = |t: &str| Credit::parse(t).map_err(|e| e.to_string()), default_value = "steps", value_name = "steps|elite"))]
     #[serde(default = "elite")]
     pub credit: Credit,
@@ -329,7 +331,7 @@ impl Default for ControllerConfig {
             restarts: 0,
             episodes: 20,
             candidates: 4,
-            select_episodes: 500,
+            select_episodes: 200,
             eval_episodes: 10_000,
             injection: 0.2,
             injections: 0,
@@ -349,7 +351,7 @@ impl Default for ControllerConfig {
 
 impl ControllerConfig {
     /// The defaults of a search on `kind` values: [`Default`]'s on exact values; on sampled ones
-    /// `N = 200`, `ρ = 0.05`, `α = 0.25` and the `mixed` template (with `K = 20` and 500
+    /// `N = 200`, `ρ = 0.05`, `α = 0.25` and the `mixed` template (with `K = 20` and 200
     /// selection episodes, the defaults of every search, used by sampled ones alone), Mealy decisions
     /// after a memoryless stage, so that the memory only adds to the best memoryless policy,
     /// and runs that alternate between flat nodes and a shift register: chosen by measurement
