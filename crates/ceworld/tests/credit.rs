@@ -124,3 +124,41 @@ fn a_world_whose_value_is_not_a_sum_of_rewards_refits_from_the_elite() {
     let (steps, elite) = (search(&world(true), Credit::Steps, 1), search(&world(true), Credit::Elite, 1));
     assert_eq!(found(&steps), found(&elite));
 }
+
+#[test]
+fn a_credited_search_resumes_from_its_checkpoint_bit_for_bit() {
+    use ceworld::Checkpointing;
+    use ceworld::StopReason;
+    use ceworld::ce::controller::optimize_controller_with;
+    let dir = std::env::temp_dir().join(format!("ceworld-credit-resume-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let world = world(false);
+    let config = ControllerConfig {
+        nodes: 2,
+        smoothing: 0.25,
+        max_iterations: Some(9),
+        restarts: 2,
+        ..settings(Credit::Steps, 1)
+    };
+    let whole = optimize_controller(Valued::Sampled(&world), &config, |_| Flow::Continue).unwrap();
+    let checkpointing = Checkpointing { path: dir.join("credit.ckpt"), every: 1e9, resume: true, outputs: Vec::new() };
+    // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.
+    let mut sessions = 0;
+    let resumed = loop {
+        sessions += 1;
+        let mut seen = 0;
+        let out = optimize_controller_with(Valued::Sampled(&world), &config, Some(&checkpointing), |_| {
+            seen += 1;
+            if seen == 3 { Flow::Stop } else { Flow::Continue }
+        })
+        .unwrap();
+        if out.stop != StopReason::Interrupted {
+            break out;
+        }
+        assert!(sessions < 20, "never ends");
+    };
+    assert!(sessions > 2, "{sessions} sessions");
+    assert_eq!(found(&resumed), found(&whole));
+    assert_eq!(resumed.run_values, whole.run_values);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
