@@ -108,7 +108,8 @@ impl<'py> Shard<'py> {
         let episodes = count("episodes", episodes)?;
         ceworld::evaluate::check_episodes(episodes).or_raise()?;
         let threads = crate::convert::optional_count("threads", threads)?;
-        ceworld::control::thread_pool(threads).or_raise()?;
+        // Checked here, in the order of the arguments; each caller builds its pool once.
+        threads.map(ceworld::control::check_threads).transpose().or_raise()?;
         let world = WorldArg::of(world)?;
         let controllers = read_controllers(controllers, world.run(py, |w| Ok(w.shape()))?)?;
         Ok(Shard { world, controllers, streams, episodes, threads })

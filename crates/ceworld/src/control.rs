@@ -86,7 +86,8 @@ impl Interrupt {
 /// Most worker threads of one pool.
 pub const MAX_THREADS: usize = 1024;
 
-pub(crate) fn check_threads(n: usize) -> Result<()> {
+/// Refuses a thread count outside `1..=MAX_THREADS`, naming it.
+pub fn check_threads(n: usize) -> Result<()> {
     if n == 0 || n > MAX_THREADS {
         return Err(Error::invalid("threads", format!("{n} (expected 1..={MAX_THREADS}, or none for one per core)")));
     }

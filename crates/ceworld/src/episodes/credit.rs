@@ -26,9 +26,9 @@ impl StepCredit {
         StepCredit { rows, visits: vec![0; controllers * rows], sums: vec![0.0; controllers * rows] }
     }
 
-    /// The decision rows of `c`: one per node (Moore), one per node and observation (Mealy).
+    /// The decision rows of `c` ([`Controller::decisions`]).
     pub fn rows_of(c: &Controller) -> usize {
-        if c.is_mealy() { c.on.len() } else { c.act.len() }
+        c.decisions().len()
     }
 
     /// Adds one episode of controller `c` (index `index` in the set), of value `value`: its
@@ -46,8 +46,10 @@ impl StepCredit {
         let base = index * self.rows;
         let (mut node, mut before, mut factor) = (0u32, 0.0, 1.0);
         for (y, r) in steps {
-            let row = if c.is_mealy() { node as usize * n_obs + y } else { c.next[node as usize * n_obs + y] as usize };
+            let from = node as usize;
             c.step(&mut node, y, n_obs);
+            // A Mealy machine decides in the node it left, a Moore machine in the one it enters.
+            let row = if c.is_mealy() { from * n_obs + y } else { node as usize };
             self.visits[base + row] += 1;
             self.sums[base + row] += value - before;
             before += factor * r;

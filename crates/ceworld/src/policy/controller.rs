@@ -51,6 +51,12 @@ impl Controller {
         !self.on.is_empty()
     }
 
+    /// Its decision rows: `on` (one per node and observation) for a Mealy machine, `act` (one
+    /// per node) for a Moore machine.
+    pub fn decisions(&self) -> &[u32] {
+        if self.is_mealy() { &self.on } else { &self.act }
+    }
+
     /// One step on observation `y` (of `n_obs`): moves `node` on and returns the decision.
     #[inline]
     pub fn step(&self, node: &mut u32, y: usize, n_obs: usize) -> u32 {

@@ -88,14 +88,6 @@ pub enum Credit {
 }
 
 impl Credit {
-    /// `"steps"` or `"elite"`.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Credit::Steps => "steps",
-            Credit::Elite => "elite",
-        }
-    }
-
     /// The credit named `name`, or an error listing both.
     pub fn parse(name: &str) -> Result<Credit> {
         match name {

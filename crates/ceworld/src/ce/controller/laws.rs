@@ -137,11 +137,6 @@ impl Laws {
         if self.mealy { Controller::mealy(act, next, self.y1) } else { Controller::moore(act, next) }
     }
 
-    /// The decisions of `c` that these laws draw: `on` (Mealy) or `act` (Moore).
-    fn decisions<'c>(&self, c: &'c Controller) -> &'c [u32] {
-        if self.mealy { &c.on } else { &c.act }
-    }
-
     /// `p := α·frequency + (1 − α)·p` over the elite; a decision row with a `best` decision
     /// (credit within episodes, model §8) moves its `α` onto that decision instead.
     pub(super) fn refit(&mut self, elite: &[&Controller], best: Option<&[Option<u32>]>, alpha: f64) {
@@ -156,7 +151,7 @@ impl Laws {
             }
         }
         for c in elite {
-            for (r, &a) in self.decisions(c).iter().enumerate() {
+            for (r, &a) in c.decisions().iter().enumerate() {
                 if credited(r).is_none() {
                     self.act[r * self.n_actions + a as usize] += weight;
                 }
@@ -265,7 +260,7 @@ impl Laws {
     /// uniform law with the rest.
     pub(super) fn around(c: &Controller, n_actions: usize, y1: usize, weight: f64) -> Laws {
         let mut laws = Laws::zero(c.nodes(), n_actions, y1, c.is_mealy(), 0);
-        for (r, &a) in laws.decisions(c).iter().enumerate() {
+        for (r, &a) in c.decisions().iter().enumerate() {
             laws.act[r * n_actions + a as usize] = 1.0;
         }
         let n = c.nodes();

@@ -484,10 +484,8 @@ impl Search<'_> {
         order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
         let candidate = self.candidate(&drawn, &order)?;
         // Each decision row's best decision by the credit of its steps, where there is one.
-        let best = credit.map(|credit| {
-            let decisions = drawn.iter().map(|(_, c)| if c.is_mealy() { &c.on[..] } else { &c.act[..] });
-            credit.best(decisions.enumerate(), self.n_actions)
-        });
+        let best =
+            credit.map(|credit| credit.best(drawn.iter().map(|(_, c)| c.decisions()).enumerate(), self.n_actions));
         Ok(Draws { iteration, drawn, cut, order, candidate, best })
     }
 
