@@ -3,12 +3,16 @@ on memory tasks of the engine, numpy and POPGym (through Gymnasium), at a fixed 
 
     python3 benches/sampled_defaults.py [--tasks t-maze repeat-first ...] [--seconds 60]
         [--seeds 0 1 2] [--settings '{"samples": 1000, "episodes": 100, "select_episodes": 2000}']
+        [--curves curves.jsonl]
 
 For each task and seed it runs ``optimize_controller(world, time_limit=seconds, threads=1,
 seed=seed, **settings)`` and prints a Markdown table: the value on fresh episodes, iterations, the iteration whose
 memoryless stage ended (``-`` where none did), the nodes of the policy file, the seconds
 taken and, on POPGym tasks, the environment steps taken (both with the final evaluation, its
-``eval_episodes`` fresh episodes). POPGym tasks need ``pip install popgym``.
+``eval_episodes`` fresh episodes). POPGym tasks need ``pip install popgym``. With ``--curves``
+it appends one JSON line per task and seed with the learning curve (after each iteration: the
+seconds and the best value so far on the selection episodes), as ``benches/recurrent_ppo.py``
+does for its rival; ``benches/plot_curves.py`` draws them.
 """
 
 from __future__ import annotations
@@ -65,6 +69,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--settings", type=json.loads, default={}, help="more settings, as a JSON object")
+    parser.add_argument("--curves", help="append the learning curves to this JSON-lines file")
     args = parser.parse_args()
     print(f"settings: defaults, {args.settings}; {args.seconds:g} s each, one thread")
     print("| task | seed | value | iterations | stage ended | nodes | seconds | env steps |")
@@ -83,6 +88,14 @@ def main() -> None:
             steps = f"{STEPS[0]:,}" if STEPS[0] else "-"
             cells = [*row, result.policy.levels[0], f"{seconds:.1f}", steps]
             print("| " + " | ".join(str(x) for x in cells) + " |", flush=True)
+            if args.curves:
+                curve = [
+                    {"seconds": float(t), "mean": float(v)}
+                    for t, v in zip(history["seconds"], history["best_so_far"], strict=True)
+                ]
+                line = {"method": "cehmm", "task": name, "seed": seed, "curve": curve, "final": result.value}
+                with open(args.curves, "a") as out:
+                    out.write(json.dumps(line) + "\n")
 
 
 if __name__ == "__main__":

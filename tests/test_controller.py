@@ -261,6 +261,43 @@ def test_credit_within_episodes_learns_the_decisions_a_shift_register_needs() ->
         cehmm.optimize_controller(RepeatPrevious(), credit="ranks", progress=False)
 
 
+class Sweep:
+    """A blind search: each of 12 steps names one of 12 cells, +1 for a cell not named before,
+    −1 for one named again; the observation tells nothing. Only a time-indexed policy (a
+    permutation) reaches 12; 8 flat nodes name 8 cells at most (4), a blind policy −10."""
+
+    batched = True
+    n_observations, n_decisions, horizon = 1, 12, 12
+
+    def reset(self, n: int, seed: int) -> np.ndarray:
+        self._named = np.zeros((n, self.n_decisions), dtype=bool)
+        self._t = 0
+        return np.zeros(n, dtype=np.int64)
+
+    def step(self, decisions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        rows = np.arange(len(decisions))
+        rewards = np.where(self._named[rows, decisions], -1.0, 1.0)
+        self._named[rows, decisions] = True
+        self._t += 1
+        return np.zeros(len(decisions), dtype=np.int64), rewards, np.full(len(decisions), self._t >= self.horizon)
+
+
+def test_a_clock_learns_the_time_indexed_policy_a_blind_search_needs() -> None:
+    settings = dict(seed=0, threads=1, eval_episodes=100, progress=False)
+    clock = cehmm.optimize_controller(Sweep(), memory="clock", max_iterations=25, **settings)
+    assert clock.value == 12.0 and clock.policy.levels == [64, 64]
+    assert clock.policy.provenance["memory"] == "clock"
+    # The default memory takes turns: flat nodes (8 name 8 cells at most: 4), registers, then
+    # the clock, which names 11 cells of 12 at least here.
+    turns = cehmm.optimize_controller(Sweep(), restarts=3, max_iterations=25, **settings)
+    assert turns.run_values[0] <= 4.0 < 10.0 <= turns.run_values[2] <= turns.value
+    # A clock reads no observation: Moore decisions are its own, whatever is asked.
+    moore = cehmm.optimize_controller(
+        Sweep(), memory="clock", decisions="moore", memoryless_patience=0, max_iterations=1, **settings
+    )
+    assert moore.policy.levels == [64, 64]
+
+
 def test_registers_are_refused_where_they_do_not_fit() -> None:
     with pytest.raises(cehmm.InvalidArgumentError, match=r"registers.*1 of register_size 4"):
         cehmm.optimize_controller(RepeatPrevious(), memory="registers", registers=1, progress=False)
@@ -268,7 +305,7 @@ def test_registers_are_refused_where_they_do_not_fit() -> None:
         cehmm.optimize_controller(
             RepeatPrevious(), memory="registers", decisions="moore", memoryless_patience=0, progress=False
         )
-    with pytest.raises(cehmm.InvalidArgumentError, match=r"memory.*\"alternate\""):
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"memory.*\"clock\" or \"alternate\""):
         cehmm.optimize_controller(RepeatPrevious(), memory="factored", progress=False)
 
 

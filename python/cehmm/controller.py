@@ -219,10 +219,14 @@ def optimize_controller(
             nodes), ``"registers"`` (factored: ``registers`` registers of ``register_size``
             values, ``register_size ** registers`` nodes, each register moving on the
             observation and the register before it, so that the laws grow as
-            ``registers · register_size³`` rather than ``nodes²``; Mealy decisions) or
-            ``"alternate"`` (runs take turns: flat nodes from ``template``, then registers from
-            the ``"window"`` template, a shift register of the last observations; the best run
-            is kept). Default ``"nodes"`` on exact values, ``"alternate"`` on sampled.
+            ``registers · register_size³`` rather than ``nodes²``; Mealy decisions),
+            ``"clock"`` (64 nodes, node ``t`` for step ``t`` and the last holding, kept at
+            weight 0.99, with Moore decisions and no memoryless stage: a time-indexed policy,
+            what a game of search such as Battleship needs) or ``"alternate"`` (runs take
+            turns: flat nodes from ``template``, registers from the ``"window"`` template, a
+            shift register of the last observations, then the clock; in the first round the
+            first run ends by 35 % of ``time_limit`` and the second by 85 %; the best run is
+            kept). Default ``"nodes"`` on exact values, ``"alternate"`` on sampled.
         registers: registers of a factored memory, at least 2.
         register_size: values of each register (the ``"window"`` template's first register
             copies the observation modulo this), at least 2.

@@ -47,10 +47,11 @@ pub(crate) struct ControllerArgs {
     memoryless_patience: Option<usize>,
     /// The memory's layout: nodes (--nodes flat nodes), registers (--registers registers of
     /// --register-size values, each moving on the observation and the register before it; Mealy
-    /// decisions) or alternate (runs take turns: flat nodes from --template, then registers as a
-    /// shift register of the last observations). [default: nodes on exact values, alternate on
-    /// sampled ones]
-    #[arg(long, value_parser = parse_memory, value_name = "nodes|registers|alternate")]
+    /// decisions), clock (64 nodes, node t for step t, with Moore decisions: a time-indexed
+    /// policy) or alternate (runs take turns: flat nodes from --template, registers as a shift
+    /// register of the last observations, then the clock). [default: nodes on exact values,
+    /// alternate on sampled ones]
+    #[arg(long, value_parser = parse_memory, value_name = "nodes|registers|clock|alternate")]
     memory: Option<Memory>,
     #[command(flatten)]
     output: OutputArgs,

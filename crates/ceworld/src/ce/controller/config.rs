@@ -6,7 +6,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::settings::{Given, Setting, Settings};
 
-pub use super::memory::{Memory, Template};
+use super::memory::{CLOCK_NODES, CLOCK_WEIGHT};
+pub use super::memory::{Memory, RunMemory, Template};
 
 /// Most controllers of one iteration.
 pub const MAX_SAMPLES: usize = 10_000_000;
@@ -373,22 +374,44 @@ impl ControllerConfig {
         }
     }
 
-    /// The memory of run `restart` (where no model start is kept): its nodes, registers (0:
-    /// flat nodes) and template.
-    pub fn memory_of(&self, restart: usize) -> (usize, usize, Template) {
-        let registers = self.register_size.pow(self.registers as u32);
-        match (self.memory, restart % 2) {
-            (Memory::Nodes, _) | (Memory::Alternate, 0) => (self.nodes, 0, self.template),
-            (Memory::Registers, _) => (registers, self.registers, self.template),
-            (Memory::Alternate, _) => (registers, self.registers, Template::Window),
+    /// The memory of run `restart` (where no model start is kept).
+    pub fn memory_of(&self, restart: usize) -> RunMemory {
+        let flat = RunMemory {
+            nodes: self.nodes,
+            registers: 0,
+            template: self.template,
+            template_weight: self.template_weight,
+            mealy: self.decisions == Decisions::Mealy,
+        };
+        let factored = RunMemory {
+            nodes: self.register_size.pow(self.registers as u32),
+            registers: self.registers,
+            mealy: true,
+            ..flat
+        };
+        let clock = RunMemory {
+            nodes: CLOCK_NODES,
+            template: Template::Clock,
+            template_weight: CLOCK_WEIGHT,
+            mealy: false,
+            ..flat
+        };
+        match (self.memory, restart % 3) {
+            (Memory::Nodes, _) | (Memory::Alternate, 0) => flat,
+            (Memory::Registers, _) => factored,
+            (Memory::Alternate, 1) => RunMemory { template: Template::Window, ..factored },
+            (Memory::Clock | Memory::Alternate, _) => clock,
         }
     }
 
     /// The most nodes of a run's memory (where no model start is kept).
     pub fn most_nodes(&self) -> usize {
-        let flat = if self.memory == Memory::Registers { 0 } else { self.nodes + self.growths };
-        let factored = if self.memory == Memory::Nodes { 0 } else { self.memory_of(1).0 };
-        flat.max(factored)
+        let runs = if self.memory == Memory::Alternate { 3 } else { 1 };
+        (0..runs)
+            .map(|r| self.memory_of(r))
+            .map(|m| m.nodes + if m.registers == 0 { self.growths } else { 0 })
+            .max()
+            .unwrap_or(0)
     }
 
     /// The stopping rules (model §8); the time limit covers every run together.
@@ -501,8 +524,11 @@ impl ControllerConfig {
     /// decisions, registers too few, too small or too many nodes.
     fn validate_memory(&self) -> Result<()> {
         let needs_mealy: Vec<String> = [
-            (self.memoryless_patience > 0).then(|| format!("memoryless_patience {}", self.memoryless_patience)),
-            (self.memory != Memory::Nodes).then(|| format!("memory \"{}\"", self.memory.as_str())),
+            // A clock's decisions are its own (Moore), and it has no memoryless stage.
+            (self.memoryless_patience > 0 && self.memory != Memory::Clock)
+                .then(|| format!("memoryless_patience {}", self.memoryless_patience)),
+            matches!(self.memory, Memory::Registers | Memory::Alternate)
+                .then(|| format!("memory \"{}\"", self.memory.as_str())),
         ]
         .into_iter()
         .flatten()
@@ -513,13 +539,13 @@ impl ControllerConfig {
                 name,
                 format!(
                     "{} with decisions \"{}\" (a memoryless stage and registers need decisions \"mealy\": one \
-                     Moore node is a blind policy; or memoryless_patience 0 and memory \"nodes\")",
+                     Moore node is a blind policy; or memoryless_patience 0 and memory \"nodes\" or \"clock\")",
                     needs_mealy.join(" and "),
                     self.decisions.as_str()
                 ),
             ));
         }
-        if self.memory != Memory::Nodes {
+        if matches!(self.memory, Memory::Registers | Memory::Alternate) {
             let nodes = self.register_size.checked_pow(self.registers as u32);
             if self.registers < 2 || self.register_size < 2 || nodes.is_none_or(|n| n > crate::policy::MAX_LEVEL_SIZE) {
                 return Err(Error::invalid(
@@ -543,18 +569,24 @@ mod tests {
     use super::*;
 
     #[test]
-    fn runs_alternate_between_flat_nodes_and_a_shift_register() {
+    fn runs_alternate_between_flat_nodes_a_shift_register_and_a_clock() {
         let sampled = ControllerConfig::defaults_for(ValueKind::Sampled);
         assert_eq!(sampled.memory, Memory::Alternate);
-        assert_eq!(sampled.memory_of(0), (8, 0, Template::Mixed));
-        assert_eq!(sampled.memory_of(1), (64, 3, Template::Window));
-        assert_eq!(sampled.memory_of(2), sampled.memory_of(0));
+        let shape = |m: RunMemory| (m.nodes, m.registers, m.template, m.template_weight, m.mealy);
+        assert_eq!(shape(sampled.memory_of(0)), (8, 0, Template::Mixed, 0.5, true));
+        assert_eq!(shape(sampled.memory_of(1)), (64, 3, Template::Window, 0.5, true));
+        assert_eq!(shape(sampled.memory_of(2)), (64, 0, Template::Clock, 0.99, false));
+        assert_eq!(sampled.memory_of(3), sampled.memory_of(0));
         assert_eq!(sampled.most_nodes(), 64);
         let exact = ControllerConfig { growths: 2, ..ControllerConfig::default() };
-        assert_eq!((exact.memory_of(1), exact.most_nodes()), ((8, 0, Template::Uniform), 10));
+        assert_eq!((shape(exact.memory_of(1)), exact.most_nodes()), ((8, 0, Template::Uniform, 0.5, false), 10));
         let registers = ControllerConfig { memory: Memory::Registers, register_size: 3, ..sampled };
-        assert_eq!((registers.memory_of(0), registers.most_nodes()), ((27, 3, Template::Mixed), 27));
-        for name in ["nodes", "registers", "alternate"] {
+        assert_eq!((shape(registers.memory_of(0)), registers.most_nodes()), ((27, 3, Template::Mixed, 0.5, true), 27));
+        // A clock is a Moore machine without a memoryless stage, whatever the decisions asked.
+        let clock = ControllerConfig { memory: Memory::Clock, decisions: Decisions::Moore, ..sampled };
+        assert!(clock.validate().is_ok());
+        assert_eq!(clock.memory_of(5), sampled.memory_of(2));
+        for name in ["nodes", "registers", "clock", "alternate"] {
             assert_eq!(Memory::parse(name).unwrap().as_str(), name);
         }
         assert!(Memory::parse("flat").unwrap_err().to_string().contains("\"alternate\""));

@@ -14,18 +14,31 @@ pub enum Memory {
     /// `registers` registers of `register_size` values (`register_size^registers` nodes),
     /// each moving on the observation and the register before it.
     Registers,
-    /// Runs take turns between two memories: the first (and every other) with flat nodes from
-    /// `template`, the second (and every other) with registers from the `window` template (a
-    /// shift register of the last observations); the best run is kept.
+    /// A clock of [`CLOCK_NODES`] nodes: node `t` is step `t` (the last node holds), kept at
+    /// [`CLOCK_WEIGHT`], with Moore decisions: a time-indexed, open-loop policy whose decisions
+    /// the credit within episodes learns.
+    Clock,
+    /// Runs take turns between three memories: flat nodes from `template`, registers from the
+    /// `window` template (a shift register of the last observations), then the clock; the best
+    /// run is kept. In the first round, the first run ends by [`ALTERNATE_SHARES`]`[0]` of the
+    /// time limit and the second by [`ALTERNATE_SHARES`]`[1]`.
     Alternate,
 }
 
+/// The nodes of a clock: the first 64 steps each have their own node.
+pub const CLOCK_NODES: usize = 64;
+/// The weight of the clock template in a clock's successor laws: the clock is kept.
+pub const CLOCK_WEIGHT: f64 = 0.99;
+/// Where the first and second runs of alternating memories end, as fractions of the time limit.
+pub const ALTERNATE_SHARES: [f64; 2] = [0.35, 0.85];
+
 impl Memory {
-    /// `"nodes"`, `"registers"` or `"alternate"`.
+    /// `"nodes"`, `"registers"`, `"clock"` or `"alternate"`.
     pub fn as_str(self) -> &'static str {
         match self {
             Memory::Nodes => "nodes",
             Memory::Registers => "registers",
+            Memory::Clock => "clock",
             Memory::Alternate => "alternate",
         }
     }
@@ -35,12 +48,28 @@ impl Memory {
         match name {
             "nodes" => Ok(Memory::Nodes),
             "registers" => Ok(Memory::Registers),
+            "clock" => Ok(Memory::Clock),
             "alternate" => Ok(Memory::Alternate),
-            other => {
-                Err(Error::invalid("memory", format!("{other:?} (expected \"nodes\", \"registers\" or \"alternate\")")))
-            }
+            other => Err(Error::invalid(
+                "memory",
+                format!("{other:?} (expected \"nodes\", \"registers\", \"clock\" or \"alternate\")"),
+            )),
         }
     }
+}
+
+/// The memory of one run where no model start is kept: the first laws it draws from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunMemory {
+    /// Nodes of its controllers.
+    pub nodes: usize,
+    /// Registers of a factored memory (0: flat nodes).
+    pub registers: usize,
+    /// The template its first successor laws lean towards, and the template's weight there.
+    pub template: Template,
+    pub template_weight: f64,
+    /// Whether its decisions read the observation too (Mealy) or the node alone (Moore).
+    pub mealy: bool,
 }
 
 /// The memory a search starts from (its first laws): every successor law is the uniform law

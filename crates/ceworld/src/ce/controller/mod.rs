@@ -38,6 +38,7 @@ pub use config::{
     ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
 };
 use laws::Laws;
+use memory::ALTERNATE_SHARES;
 pub use outcome::{ControllerIteration, ControllerOutcome};
 use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
@@ -86,7 +87,7 @@ pub fn optimize_controller_with(
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
     let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing, None)?;
     let staged = start.is_none() && config.memoryless_patience > 0;
-    let nodes = start.as_ref().map_or(config.memory_of(saver.state.restart).0, Controller::nodes);
+    let nodes = start.as_ref().map_or(config.memory_of(saver.state.restart).nodes, Controller::nodes);
     if let Some(run) = &saver.state.run
         && ((run.laws.nodes() != nodes + run.growths && !(staged && run.laws.nodes() == 1))
             || run.laws.shape() != (n_actions, y1))
@@ -379,15 +380,15 @@ impl Search<'_> {
     /// `stage` of an earlier run, if any).
     fn fresh(&self, restart: usize, stage: Option<(f64, Controller)>) -> Result<SearchState> {
         let c = self.config;
-        let (nodes, registers, template) = c.memory_of(restart);
+        let m = c.memory_of(restart);
+        let staged = c.memoryless_patience > 0 && m.mealy;
         Ok(SearchState {
             laws: match (&self.start, &stage) {
                 (Some(start), _) => Laws::around(start, self.n_actions, self.y1, c.template_weight),
-                (None, Some((value, best))) if c.memoryless_patience > 0 => self.after_stage(restart, *value, best)?,
-                (None, None) if c.memoryless_patience > 0 => Laws::uniform(1, self.n_actions, self.y1, true),
+                (None, Some((value, best))) if staged => self.after_stage(restart, *value, best)?,
+                (None, None) if staged => Laws::uniform(1, self.n_actions, self.y1, true),
                 (None, _) => {
-                    let mealy = c.decisions == Decisions::Mealy;
-                    Laws::start(nodes, self.n_actions, self.y1, mealy, registers, template, c.template_weight)
+                    Laws::start(m.nodes, self.n_actions, self.y1, m.mealy, m.registers, m.template, m.template_weight)
                 }
             },
             best: None,
@@ -416,10 +417,10 @@ impl Search<'_> {
             Some(state) => state,
             None => self.fresh(restart, stage)?,
         };
-        // Alternating memories: the first of several runs takes half the time limit at most, so
-        // that the registers have the rest.
-        let shared = restart == 0 && config.memory == Memory::Alternate && config.runs() > 1;
-        let share = config.time_limit.filter(|_| shared).map(|t| t / 2.0);
+        // Alternating memories: in the first round, each run but the last ends by its share of
+        // the time limit, so that the others have the rest.
+        let shared = config.memory == Memory::Alternate && restart + 1 < config.runs();
+        let share = ALTERNATE_SHARES.get(restart).zip(config.time_limit.filter(|_| shared)).map(|(s, t)| s * t);
         // A resumed run whose last iteration meets a stopping rule ends at once.
         let resumed_stop = state
             .history
@@ -533,7 +534,7 @@ impl Search<'_> {
         // values a memoryless policy better by noise alone turns up again and again, so the
         // stage lasts three times its patience at most.
         let widened = state.laws.nodes() == 1
-            && config.memory_of(restart).0 > 1
+            && config.memory_of(restart).nodes > 1
             && self.start.is_none()
             && config.memoryless_patience > 0
             && (iteration + 1 >= 3 * config.memoryless_patience

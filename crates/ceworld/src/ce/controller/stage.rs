@@ -73,12 +73,12 @@ impl Search<'_> {
     /// The memory of run `restart` after the memoryless stage: around its best policy `best`
     /// (of `value`) where that beats every blind policy, else from the template.
     pub(super) fn after_stage(&self, restart: usize, value: f64, best: &Controller) -> Result<Laws> {
-        let (n, registers, template) = self.config.memory_of(restart);
-        let (a, w) = (self.n_actions, self.config.template_weight);
+        let m = self.config.memory_of(restart);
+        let a = self.n_actions;
         Ok(if value > self.bar()? {
-            Laws::widened(best, n, a, registers, template, w)
+            Laws::widened(best, m.nodes, a, m.registers, m.template, m.template_weight)
         } else {
-            Laws::start(n, a, self.y1, true, registers, template, w)
+            Laws::start(m.nodes, a, self.y1, true, m.registers, m.template, m.template_weight)
         })
     }
 }
