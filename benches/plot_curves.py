@@ -56,7 +56,7 @@ def main() -> None:
         ax.set_xlabel("seconds of training (one core)")
         ax.set_ylabel("value (mean return); dot: on fresh episodes")
         ax.set_title(task)
-        ax.legend(loc="lower right")
+        ax.legend(loc="best")
         fig.savefig(args.out / f"{task}.png", dpi=100)
         print(args.out / f"{task}.png")
 

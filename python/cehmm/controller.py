@@ -225,7 +225,7 @@ def optimize_controller(
             what a game of search such as Battleship needs) or ``"alternate"`` (runs take
             turns: flat nodes from ``template``, registers from the ``"window"`` template, a
             shift register of the last observations, then the clock; in the first round the
-            first run ends by 45 % of ``time_limit`` and the second by 90 %; the best run is
+            first run ends by 50 % of ``time_limit`` and the second by 95 %; the best run is
             kept). Default ``"nodes"`` on exact values, ``"alternate"`` on sampled.
         registers: registers of a factored memory, at least 2.
         register_size: values of each register (the ``"window"`` template's first register

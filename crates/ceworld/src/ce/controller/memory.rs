@@ -30,7 +30,7 @@ pub const CLOCK_NODES: usize = 64;
 /// The weight of the clock template in a clock's successor laws: the clock is kept.
 pub const CLOCK_WEIGHT: f64 = 0.99;
 /// Where the first and second runs of alternating memories end, as fractions of the time limit.
-pub const ALTERNATE_SHARES: [f64; 2] = [0.45, 0.9];
+pub const ALTERNATE_SHARES: [f64; 2] = [0.5, 0.95];
 
 impl Memory {
     /// `"nodes"`, `"registers"`, `"clock"` or `"alternate"`.
