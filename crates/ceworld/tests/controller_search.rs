@@ -8,6 +8,9 @@ use ceworld::rng::{Purpose, stream};
 use ceworld::{Error, Flow, PomdpWorld, StopReason};
 use rand::RngExt;
 
+#[path = "common/sessions.rs"]
+mod sessions;
+
 fn data(name: &str) -> String {
     format!("{}/../../data/pomdp/{name}", env!("CARGO_MANIFEST_DIR"))
 }
@@ -359,20 +362,7 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         let path = dir.join(format!("{name}.ckpt"));
         let checkpointing = Checkpointing { path: path.clone(), every: 1e9, resume: true, outputs: Vec::new() };
         // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.
-        let mut sessions = 0;
-        let resumed = loop {
-            sessions += 1;
-            let mut seen = 0;
-            let out = optimize_controller_with(valued, config, Some(&checkpointing), |_| {
-                seen += 1;
-                if seen == 3 { Flow::Stop } else { Flow::Continue }
-            })
-            .unwrap();
-            if out.stop != StopReason::Interrupted {
-                break out;
-            }
-            assert!(sessions < 20, "{name}: never ends");
-        };
+        let (resumed, sessions) = sessions::in_sessions(valued, config, &checkpointing);
         assert!(sessions > 2, "{name}: {sessions} sessions");
         let strip = |h: &[ceworld::ce::controller::ControllerIteration]| {
             h.iter()

@@ -9,6 +9,9 @@ use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
 use ceworld::{ControllerConfig, Flow};
 use serde_json::{Value, json};
 
+#[path = "common/sessions.rs"]
+mod sessions;
+
 /// Cards of `CARDS` kinds dealt at random (from the reset's seed, the episode's place in its
 /// batch and the step); a step pays 1 when its decision is the card's colour (`card mod 2`).
 /// The best policy is memoryless and pays `HORIZON`; every row (card) matters.
@@ -128,8 +131,6 @@ fn a_world_whose_value_is_not_a_sum_of_rewards_refits_from_the_elite() {
 #[test]
 fn a_credited_search_resumes_from_its_checkpoint_bit_for_bit() {
     use ceworld::Checkpointing;
-    use ceworld::StopReason;
-    use ceworld::ce::controller::optimize_controller_with;
     let dir = std::env::temp_dir().join(format!("ceworld-credit-resume-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let world = world(false);
@@ -143,20 +144,7 @@ fn a_credited_search_resumes_from_its_checkpoint_bit_for_bit() {
     let whole = optimize_controller(Valued::Sampled(&world), &config, |_| Flow::Continue).unwrap();
     let checkpointing = Checkpointing { path: dir.join("credit.ckpt"), every: 1e9, resume: true, outputs: Vec::new() };
     // Stopped at every third iteration (a Ctrl-C), then resumed, until it ends.
-    let mut sessions = 0;
-    let resumed = loop {
-        sessions += 1;
-        let mut seen = 0;
-        let out = optimize_controller_with(Valued::Sampled(&world), &config, Some(&checkpointing), |_| {
-            seen += 1;
-            if seen == 3 { Flow::Stop } else { Flow::Continue }
-        })
-        .unwrap();
-        if out.stop != StopReason::Interrupted {
-            break out;
-        }
-        assert!(sessions < 20, "never ends");
-    };
+    let (resumed, sessions) = sessions::in_sessions(Valued::Sampled(&world), &config, &checkpointing);
     assert!(sessions > 2, "{sessions} sessions");
     assert_eq!(found(&resumed), found(&whole));
     assert_eq!(resumed.run_values, whole.run_values);

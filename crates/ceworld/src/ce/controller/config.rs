@@ -382,6 +382,7 @@ impl ControllerConfig {
             template: self.template,
             template_weight: self.template_weight,
             mealy: self.decisions == Decisions::Mealy,
+            staged: false,
         };
         let factored = RunMemory {
             nodes: self.register_size.pow(self.registers as u32),
@@ -396,12 +397,13 @@ impl ControllerConfig {
             mealy: false,
             ..flat
         };
-        match (self.memory, restart % 3) {
+        let m = match (self.memory, restart % 3) {
             (Memory::Nodes, _) | (Memory::Alternate, 0) => flat,
             (Memory::Registers, _) => factored,
             (Memory::Alternate, 1) => RunMemory { template: Template::Window, ..factored },
             (Memory::Clock | Memory::Alternate, _) => clock,
-        }
+        };
+        RunMemory { staged: self.memoryless_patience > 0 && m.mealy, ..m }
     }
 
     /// The most nodes of a run's memory (where no model start is kept).

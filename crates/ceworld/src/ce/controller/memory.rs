@@ -70,6 +70,8 @@ pub struct RunMemory {
     pub template_weight: f64,
     /// Whether its decisions read the observation too (Mealy) or the node alone (Moore).
     pub mealy: bool,
+    /// Whether it starts with a memoryless stage (Mealy decisions and a memoryless patience).
+    pub staged: bool,
 }
 
 /// The memory a search starts from (its first laws): every successor law is the uniform law

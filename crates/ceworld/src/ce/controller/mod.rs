@@ -86,8 +86,9 @@ pub fn optimize_controller_with(
     }
     let settings = SearchSettings { config: config.clone(), value: world.kind() };
     let mut saver = Saver::<ControllerSearch>::new(world.episodes(), &settings, checkpointing, None)?;
-    let staged = start.is_none() && config.memoryless_patience > 0;
-    let nodes = start.as_ref().map_or(config.memory_of(saver.state.restart).nodes, Controller::nodes);
+    let memory = config.memory_of(saver.state.restart);
+    let staged = start.is_none() && memory.staged;
+    let nodes = start.as_ref().map_or(memory.nodes, Controller::nodes);
     if let Some(run) = &saver.state.run
         && ((run.laws.nodes() != nodes + run.growths && !(staged && run.laws.nodes() == 1))
             || run.laws.shape() != (n_actions, y1))
@@ -381,12 +382,11 @@ impl Search<'_> {
     fn fresh(&self, restart: usize, stage: Option<(f64, Controller)>) -> Result<SearchState> {
         let c = self.config;
         let m = c.memory_of(restart);
-        let staged = c.memoryless_patience > 0 && m.mealy;
         Ok(SearchState {
             laws: match (&self.start, &stage) {
                 (Some(start), _) => Laws::around(start, self.n_actions, self.y1, c.template_weight),
-                (None, Some((value, best))) if staged => self.after_stage(restart, *value, best)?,
-                (None, None) if staged => Laws::uniform(1, self.n_actions, self.y1, true),
+                (None, Some((value, best))) if m.staged => self.after_stage(restart, *value, best)?,
+                (None, None) if m.staged => Laws::uniform(1, self.n_actions, self.y1, true),
                 (None, _) => {
                     Laws::start(m.nodes, self.n_actions, self.y1, m.mealy, m.registers, m.template, m.template_weight)
                 }
@@ -533,10 +533,11 @@ impl Search<'_> {
         // The memoryless stage over: the laws widen to `nodes` nodes around its best. On sampled
         // values a memoryless policy better by noise alone turns up again and again, so the
         // stage lasts three times its patience at most.
+        let memory = config.memory_of(restart);
         let widened = state.laws.nodes() == 1
-            && config.memory_of(restart).nodes > 1
+            && memory.nodes > 1
             && self.start.is_none()
-            && config.memoryless_patience > 0
+            && memory.staged
             && (iteration + 1 >= 3 * config.memoryless_patience
                 || since_better(state, self.stage_noise().expect("the bar computed")) >= config.memoryless_patience);
         if widened {

@@ -78,7 +78,7 @@ impl Search<'_> {
         Ok(if value > self.bar()? {
             Laws::widened(best, m.nodes, a, m.registers, m.template, m.template_weight)
         } else {
-            Laws::start(m.nodes, a, self.y1, true, m.registers, m.template, m.template_weight)
+            Laws::start(m.nodes, a, self.y1, m.mealy, m.registers, m.template, m.template_weight)
         })
     }
 }
