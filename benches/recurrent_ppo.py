@@ -39,6 +39,9 @@ TASKS = [
     "MultiarmedBanditEasy",
     "BattleshipEasy",
     "MineSweeperEasy",
+    "PositionOnlyCartPoleEasy",
+    "NoisyPositionOnlyCartPoleEasy",
+    "PositionOnlyPendulumEasy",
 ]
 
 

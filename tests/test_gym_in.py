@@ -1,5 +1,5 @@
-"""Gymnasium in (cehmm.gym_adapt): finite spaces flattened to one index both ways, continuous
-ones refused with a hint; environments, ids, factories and vector environments optimised and
+"""Gymnasium in (cehmm.gym_adapt): finite spaces flattened to one index both ways (continuous ones
+are cut into bins: tests/test_spaces.py); environments, ids, factories and vector environments optimised and
 evaluated; a real package's environment that needs memory (popgym) in a short run."""
 
 from __future__ import annotations
@@ -65,10 +65,9 @@ def test_spaces_too_large_to_index_are_refused_with_their_exact_size() -> None:
     assert flat(spaces.MultiBinary(62)).size == 2**62
 
 
-def test_continuous_and_other_spaces_are_refused_with_a_hint() -> None:
-    box = gym.make("CartPole-v1")
-    with pytest.raises(cehmm.InvalidArgumentError, match=r"observation space: Box.*is continuous.*Discrete space"):
-        cehmm.PythonWorld(box)
+def test_continuous_spaces_are_not_flattened_and_other_spaces_are_refused_with_a_hint() -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"observation space: Box.*is continuous.*cehmm.spaces.Bins"):
+        flat(gym.make("CartPole-v1").observation_space)
     with pytest.raises(cehmm.InvalidArgumentError, match=r"expected Discrete, MultiDiscrete"):
         flat(spaces.Dict({"a": spaces.Discrete(2)}))
 

@@ -145,8 +145,10 @@ class TargetTrackingEnv(WorldEnv):
 def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.ndarray:
     """The return of each of ``episodes`` episodes of ``agent`` (e.g. :meth:`cehmm.Policy.agent`)
     in ``env``: episode ``k`` resets the environment with ``seed + k`` and the agent, then steps
-    until it is terminated or truncated. Observations and actions go through the flattening of
-    the environment's spaces (:mod:`cehmm.gym_adapt`), so any finite spaces work.
+    until it is terminated or truncated. An agent of a policy learnt on a Gymnasium environment
+    (:class:`cehmm.spaces.EnvAgent`) takes the environment's values as they are; any other's
+    observations and actions go through the flattening of the environment's finite spaces
+    (:class:`cehmm.spaces.Flat`).
 
     Example:
         >>> env = gymnasium.make(ENV_ID, case=1)
@@ -154,17 +156,17 @@ def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.nda
         >>> play(env, agent, episodes=3).shape
         (3,)
     """
-    from .gym_adapt import Flat
+    from .spaces import EnvAgent, Flat
 
-    observations, actions = Flat(env.observation_space, "observation"), Flat(env.action_space, "action")
+    if not isinstance(agent, EnvAgent):
+        agent = EnvAgent(agent, Flat(env.observation_space, "observation"), Flat(env.action_space, "action"))
     returns = np.empty(episodes)
     for k in range(episodes):
         observation, _ = env.reset(seed=seed + k)
         agent.reset()
         total, done = 0.0, False
         while not done:
-            action = actions.value(agent.act(observations.index(observation)))
-            observation, reward, terminated, truncated, _ = env.step(action)
+            observation, reward, terminated, truncated, _ = env.step(agent.act(observation))
             total += float(reward)
             done = terminated or truncated
         returns[k] = total

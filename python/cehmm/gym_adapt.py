@@ -1,10 +1,9 @@
 """Gymnasium environments as worlds of the engine (Gymnasium in; ``cehmm.gym`` is Gymnasium out).
 
-Spaces must be finite: ``Discrete``, ``MultiDiscrete``, ``MultiBinary`` or ``Tuple`` of them. Each
-is flattened to one index: ``Discrete(n, start)`` gives ``x - start``; a ``MultiDiscrete`` or
-``MultiBinary`` its components in row-major order (the last one varying fastest, as
-``numpy.ravel_multi_index``); a ``Tuple`` its components' indices in the same order. A policy's
-observation ``y`` and decision ``d`` are those indices; :func:`flat` gives the mapping both ways.
+Each space is encoded as indices by :mod:`cehmm.spaces` (finite spaces flattened, large ones
+hashed, ``Box`` observations cut into bins, ``Box`` actions a grid of values), the encodings
+recorded in the world's description (``"spaces"``) and so in policy files. An environment that
+names no horizon (no ``max_episode_steps``, no ``horizon``) has :data:`DEFAULT_HORIZON`.
 
 An environment steps one episode at a time (the episode protocol); a vector environment steps
 ``num_envs`` episodes at once (the batched protocol), its automatic resets ignored (the engine
@@ -15,21 +14,16 @@ rewards and flags are passed on as given, for the engine to check as any world's
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from . import _core
+from .spaces import Encoding, Flat, encoding
+from .spaces import gymnasium as _gymnasium
 
-
-def _gymnasium() -> Any:
-    try:
-        import gymnasium
-    except ImportError as e:  # pragma: no cover - the test extra installs it
-        raise ImportError("Gymnasium environments need gymnasium: pip install 'cehmm[gym]'") from e
-    return gymnasium
+#: Most steps of an episode of an environment that names none.
+DEFAULT_HORIZON = 1000
 
 
 def make_env(world: Any) -> Any:
@@ -46,113 +40,33 @@ def make_env(world: Any) -> Any:
     return world()
 
 
-# The most values a flattened space may have: its indices are 64-bit signed integers.
-_MAX_SIZE = 2**63 - 1
-
-
-class Flat:
-    """A finite space flattened to the indices ``0..size``.
-
-    Raises:
-        InvalidArgumentError: a space that is not finite (``Box``: discretise it first) or not
-            one of the kinds above.
-    """
-
-    def __init__(self, space: Any, role: str) -> None:
-        spaces = _gymnasium().spaces
-        self.space = space
-        self.role = role
-        self.start: int | None = None
-        self.parts: list[Flat] = []
-        if isinstance(space, spaces.Discrete):
-            self.kind = "discrete"
-            self.radices = [int(space.n)]
-            self.start = int(space.start)
-        elif isinstance(space, (spaces.MultiDiscrete, spaces.MultiBinary)):
-            self.kind = "multi"
-            nvec = np.full(space.shape, 2) if isinstance(space, spaces.MultiBinary) else space.nvec
-            self.radices = [int(n) for n in np.ravel(nvec)]
-            self._offset = np.ravel(getattr(space, "start", np.zeros_like(nvec)))
-        elif isinstance(space, spaces.Tuple):
-            self.kind = "tuple"
-            self.parts = [Flat(s, f"{role}[{k}]") for k, s in enumerate(space.spaces)]
-            self.radices = [p.size for p in self.parts]
-        else:
-            hint = (
-                " is continuous: cehmm learns over finite spaces. Wrap the environment in a "
-                "gymnasium.ObservationWrapper (or ActionWrapper) that maps each value to a cell index, "
-                "with a Discrete space (e.g. np.digitize per dimension, then np.ravel_multi_index)"
-                if isinstance(space, spaces.Box)
-                else " (expected Discrete, MultiDiscrete, MultiBinary or a Tuple of them)"
-            )
-            raise _core.InvalidArgumentError(f"invalid {role} space: {space}{hint}")
-        # Exact (Python ints): numpy's int64 product wraps silently past 2**63. A Tuple of
-        # nothing has one value, ().
-        self.size = math.prod(self.radices)
-        if self.size > _MAX_SIZE:
-            raise _core.InvalidArgumentError(
-                f"invalid {role} space: {space} has {self.size} values (at most 2**63 - 1 can be indexed; "
-                "group or discretise its values with a wrapper)"
-            )
-
-    def check(self, value: Any) -> None:
-        """Refuses a value that is not in the space (``space.contains``: type, shape, range).
-
-        Raises:
-            WorldError: naming the value and the space.
-        """
-        try:
-            inside = bool(self.space.contains(value))
-        except Exception:  # noqa: BLE001 - a value contains() cannot even read is not in the space
-            inside = False
-        if not inside:
-            raise _core.WorldError(f"{self.role} {_shown(value)} is not in the space {self.space}")
-
-    def index(self, value: Any) -> int:
-        """The index of a value of the space (checked to be in it)."""
-        self.check(value)
-        return self._index(value)
-
-    def _index(self, value: Any) -> int:
-        if self.kind == "discrete":
-            return int(value) - int(self.start or 0)
-        if self.kind == "tuple":
-            return int(np.ravel_multi_index([p._index(v) for p, v in zip(self.parts, value)], self.radices))
-        return int(np.ravel_multi_index(np.ravel(value) - self._offset, self.radices))
-
-    def value(self, index: int) -> Any:
-        """The value of the space at an index."""
-        if self.kind == "discrete":
-            return int(self.start or 0) + int(index)
-        digits = np.unravel_index(int(index), self.radices)
-        if self.kind == "tuple":
-            return tuple(p.value(d) for p, d in zip(self.parts, digits))
-        return (np.asarray(digits) + self._offset).astype(self.space.dtype).reshape(self.space.shape)
-
-
-def _shown(value: Any) -> str:
-    """A value as an error shows it: its repr, cut at 80 characters."""
-    text = repr(value)
-    return text if len(text) <= 80 else text[:79] + "…"
-
-
 def flat(space: Any, role: str = "observation") -> Flat:
-    """The flattening of a finite Gymnasium space (module docstring); ``role`` names it in errors."""
+    """The flattening of a finite Gymnasium space (:class:`cehmm.spaces.Flat`); ``role`` names it in errors."""
     return Flat(space, role)
 
 
 class _Adapted:
-    """An environment's flattened spaces, sizes and horizon (where its spec gives one)."""
+    """An environment's encoded spaces (:mod:`cehmm.spaces`), sizes and horizon."""
 
-    def __init__(self, env: Any, observation_space: Any, action_space: Any) -> None:
+    def __init__(
+        self, env: Any, observation_space: Any, action_space: Any, horizon: int | None, choices: dict[str, Any]
+    ) -> None:
         self.env = env
-        self.observations = Flat(observation_space, "observation")
-        self.actions = Flat(action_space, "action")
+        steps = getattr(getattr(env, "spec", None), "max_episode_steps", None)
+        self.horizon = int(horizon if horizon is not None else steps if steps is not None else DEFAULT_HORIZON)
+        self.actions: Encoding = encoding(action_space, "action", choices.get("actions"))
+        self.observations: Encoding = encoding(
+            observation_space,
+            "observation",
+            choices.get("observations"),
+            lambda n, seed: warmup_observations(env, n, seed, self.horizon),
+        )
         self.n_observations = self.observations.size
         self.n_decisions = self.actions.size
-        steps = getattr(getattr(env, "spec", None), "max_episode_steps", None)
-        if steps is not None:
-            self.horizon = int(steps)
+
+    def spaces(self) -> dict[str, Any]:
+        """What the description records of the encodings."""
+        return {"observation": self.observations.record(), "action": self.actions.record()}
 
 
 class EnvEpisodes(_Adapted):
@@ -160,8 +74,8 @@ class EnvEpisodes(_Adapted):
     and flattened; the reward and flags passed on as the environment gave them (the engine
     checks them, as it does any world's)."""
 
-    def __init__(self, env: Any) -> None:
-        super().__init__(env, env.observation_space, env.action_space)
+    def __init__(self, env: Any, horizon: int | None = None, choices: dict[str, Any] | None = None) -> None:
+        super().__init__(env, env.observation_space, env.action_space, horizon, choices or {})
 
     def reset(self, seed: int) -> int:
         observation, _ = self.env.reset(seed=seed)
@@ -182,25 +96,30 @@ class VectorBatch(_Adapted):
 
     batched = True
 
-    def __init__(self, env: Any) -> None:
-        super().__init__(env, env.single_observation_space, env.single_action_space)
+    def __init__(self, env: Any, horizon: int | None = None, choices: dict[str, Any] | None = None) -> None:
+        super().__init__(env, env.single_observation_space, env.single_action_space, horizon, choices or {})
         self.max_batch = int(env.num_envs)
         gymnasium = _gymnasium()
         utils = gymnasium.vector.utils
         self._iterate: Callable[..., Any] = utils.iterate
         self._concatenate: Callable[..., Any] = utils.concatenate
         self._empty = utils.create_empty_array(env.single_action_space, env.num_envs)
-        self._batched_observations = Flat(env.observation_space, "observations")
+        finite = isinstance(self.observations, Flat)
+        self._batched_observations = Flat(env.observation_space, "observations") if finite else None
         mode = getattr(gymnasium.vector, "AutoresetMode", None)
         self._reset_ended = mode is not None and env.metadata.get("autoreset_mode") == mode.DISABLED
 
     def _indices(self, observations: Any, n: int) -> np.ndarray:
-        self._batched_observations.check(observations)
-        if self.observations.kind == "discrete":
-            return np.asarray(observations, dtype=np.int64)[:n] - int(self.observations.start or 0)
+        encoded = self.observations
+        if self._batched_observations is not None and isinstance(encoded, Flat):
+            self._batched_observations.check(observations)
+            if encoded.kind == "discrete":
+                return np.asarray(observations, dtype=np.int64)[:n] - int(encoded.start or 0)
+            index = encoded._index
+        else:
+            index = encoded.index
         items = self._iterate(self.env.observation_space, observations)
-        indices = (self.observations._index(o) for o in items)
-        return np.fromiter(indices, dtype=np.int64, count=self.max_batch)[:n]
+        return np.fromiter((index(o) for o in items), dtype=np.int64, count=self.max_batch)[:n]
 
     def reset(self, n: int, seed: int) -> np.ndarray:
         self._n = n
@@ -210,7 +129,7 @@ class VectorBatch(_Adapted):
     def step(self, decisions: np.ndarray) -> tuple[np.ndarray, Any, Any, Any, dict[str, Any]]:
         padded = np.zeros(self.max_batch, dtype=np.int64)
         padded[: len(decisions)] = decisions
-        if self.actions.kind == "discrete":
+        if isinstance(self.actions, Flat) and self.actions.kind == "discrete":
             actions = (padded + int(self.actions.start or 0)).astype(self.env.single_action_space.dtype)
         else:
             items = [self.actions.value(d) for d in padded]
@@ -230,13 +149,42 @@ def _head(values: Any, n: int) -> Any:
     return np.asarray(values)[:n]
 
 
-def adapt(env: Any) -> tuple[Any, dict[str, Any]]:
-    """An environment (or vector environment) in one of the two protocols, and its description."""
+def adapt(env: Any, horizon: int | None = None, choices: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
+    """An environment (or vector environment) in one of the two protocols, and its description;
+    ``choices`` are the encodings asked for (``{"observations": ..., "actions": ...}``)."""
     gymnasium = _gymnasium()
     spec = getattr(env, "spec", None)
     description: dict[str, Any] = {"id": spec.id} if spec is not None else {}
     unwrapped = getattr(env, "unwrapped", env)
     description.setdefault("class", f"{type(unwrapped).__module__}.{type(unwrapped).__qualname__}")
-    if isinstance(env, gymnasium.vector.VectorEnv):
-        return VectorBatch(env), description
-    return EnvEpisodes(env), description
+    kind = VectorBatch if isinstance(env, gymnasium.vector.VectorEnv) else EnvEpisodes
+    adapted = kind(env, horizon, choices)
+    description["spaces"] = adapted.spaces()
+    return adapted, description
+
+
+def warmup_observations(env: Any, steps: int, seed: int, horizon: int | None) -> np.ndarray:
+    """The observations (rows) met in ``steps`` steps of uniformly random actions in ``env``
+    (an environment, or a vector environment), its episodes reset with seeds ``seed``,
+    ``seed + 1``, ... and cut at ``horizon``."""
+    vector = hasattr(env, "num_envs") and hasattr(env, "single_observation_space")
+    env.action_space.seed(seed)
+    rows: list[np.ndarray] = []
+    if vector:
+        observations, _ = env.reset(seed=seed)
+        while len(rows) < steps:
+            rows.extend(np.asarray(observations, dtype=float).reshape(env.num_envs, -1))
+            observations, *_ = env.step(env.action_space.sample())
+        return np.asarray(rows[:steps])
+    episode = 0
+    while len(rows) < steps:
+        observation, _ = env.reset(seed=seed + episode)
+        episode += 1
+        rows.append(np.ravel(np.asarray(observation, dtype=float)))
+        t, done = 0, False
+        while not done and len(rows) < steps and (horizon is None or t < horizon):
+            observation, _, terminated, truncated, _ = env.step(env.action_space.sample())
+            rows.append(np.ravel(np.asarray(observation, dtype=float)))
+            t += 1
+            done = bool(terminated or truncated)
+    return np.asarray(rows)

@@ -65,12 +65,21 @@ class PythonWorld:
             registered environment id (``"FrozenLake-v1"``), or a function of no argument that
             returns one of these.
         horizon: most steps of an episode (default: the world's ``horizon``, or the
-            environment's ``max_episode_steps``).
+            environment's ``max_episode_steps``, or for an environment that names neither
+            ``cehmm.gym_adapt.DEFAULT_HORIZON``, 1000).
         score: the value of an episode from its ``(observations, decisions, rewards)``
             (default: the sum of the rewards, discounted).
         discount: ``0 <= discount <= 1`` (as in ``.pomdp`` files); step ``t`` (from 0) weighs ``discount ** t`` in the
             default score.
         name: how errors and policy files name it (default: its class, or the environment id).
+        observations: for a Gymnasium environment, how its observations become indices: None
+            (the default of :mod:`cehmm.spaces`: finite spaces flattened, those of more than
+            4096 values hashed, a ``Box`` cut into bins at quantiles of a warm-up), or an
+            encoding of :mod:`cehmm.spaces` (``Flat()``, ``Hashed(4096)``, ``Bins(8)``,
+            ``Bins(8, fit="bounds")``, ``Bins(edges=...)``). Recorded in policy files.
+        actions: for a Gymnasium environment, how its actions are indexed: None (finite
+            spaces flattened, a ``Box`` a grid of 5 values a dimension) or ``Grid(k)``,
+            ``Grid(values=...)``. Recorded in policy files.
 
     Raises:
         TypeError: ``world`` speaks neither protocol, or lacks ``n_observations``,
@@ -87,10 +96,12 @@ class PythonWorld:
         score: Score | None = None,
         discount: float = 1.0,
         name: str | None = None,
+        observations: Any = None,
+        actions: Any = None,
     ) -> None:
         #: What was given (an environment, its id, a factory...), before any adapting.
         self.world = world
-        self._options = dict(horizon=horizon, score=score, discount=discount, name=name)
+        self._options: dict[str, Any] = dict(horizon=horizon, score=score, discount=discount, name=name)
         if isinstance(world, str) or _is_factory(world):
             from .gym_adapt import make_env
 
@@ -99,7 +110,9 @@ class PythonWorld:
         if _is_gym_env(world):
             from .gym_adapt import adapt
 
-            world, description = adapt(world)
+            world, description = adapt(world, horizon, {"observations": observations, "actions": actions})
+            # Fitted once (a warm-up, say): a copy made elsewhere (a backend's worker) reuses them.
+            self._options.update(observations=world.observations, actions=world.actions)
         elif not (callable(getattr(world, "reset", None)) and callable(getattr(world, "step", None))):
             raise TypeError(
                 f"invalid world: {world!r} (expected a cehmm world, an object with reset() and step() "
@@ -107,6 +120,12 @@ class PythonWorld:
             )
         else:
             description["class"] = f"{type(world).__module__}.{type(world).__qualname__}"
+            for what, given in (("observations", observations), ("actions", actions)):
+                if given is not None:
+                    raise TypeError(
+                        f"invalid {what}: {given!r} for {description['class']} (encodings apply to Gymnasium "
+                        "environments; a world of the episode or batched protocol gives indices itself)"
+                    )
         if name is not None:
             if not isinstance(name, str):
                 raise TypeError(f"invalid name: {name!r} is {type(name).__name__} (expected a str)")

@@ -11,8 +11,10 @@ import numpy as np
 from . import _core
 from ._core import Agent, InvalidArgumentError, PolicyFormatError
 from .backend import Backend
+from .outside import PythonWorld, _is_gym_env
 from .ray_backend import sampled_world
 from .results import Evaluation, ExactValue, Rollout, evaluation
+from .spaces import EnvAgent, recorded
 from .world import World, core_world
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -260,11 +262,14 @@ class Policy:
         deterministic controller with the same memory; ``graph(form="pg")`` takes it."""
         return Policy(self._core.most_likely())
 
-    def agent(self, seed: int = 0) -> Agent:
+    def agent(self, seed: int = 0) -> Agent | EnvAgent:
         """This policy as an agent for any loop (a Gymnasium loop, a robot's): ``agent.reset()`` at
         the start of each episode, then ``agent.act(observation) -> decision`` at each step; the
         memory is kept between calls. Its draws come from ``seed`` (episode ``k`` after ``k``
-        resets has its own stream). Observations are the world's indices (``0..n_obs``).
+        resets has its own stream). Observations are the world's indices (``0..n_obs``); for a
+        policy learnt on a Gymnasium environment, an :class:`~cehmm.spaces.EnvAgent` that takes
+        the observations the environment returns and answers actions of its action space,
+        through the encodings the policy file recorded (:mod:`cehmm.spaces`).
 
         Example:
             >>> world = TargetTracking(case=1)
@@ -273,7 +278,9 @@ class Policy:
             >>> agent.act(0) in range(world.n_decisions)
             True
         """
-        return Agent(self._core, seed)
+        agent = Agent(self._core, seed)
+        found = recorded(self.world)
+        return agent if found is None else EnvAgent(agent, *found)
 
     def rollout(self, world: Any = None, seed: int = 0, episode: int = 0) -> Rollout:
         """One recorded episode: episode ``episode`` of :meth:`evaluate` with the same ``seed``
@@ -292,7 +299,9 @@ class Policy:
 
     def _world(self, world: Any) -> Any:
         if world is not None:
-            return world
+            found = recorded(self.world) if isinstance(world, str) or _is_gym_env(world) else None
+            # A Gymnasium environment met again: through the encodings the policy was learnt with.
+            return world if found is None else PythonWorld(world, observations=found[0], actions=found[1])
         stored = self.world
         if not stored:
             raise InvalidArgumentError("invalid world: None (expected a cehmm world: this policy has no stored world)")

@@ -414,7 +414,7 @@ fn the_model_start_is_never_lost_and_sets_the_nodes() {
 }
 
 #[test]
-fn a_mealy_machine_decides_values_and_exports_as_its_moore_machine() {
+fn a_mealy_machine_decides_values_and_exports_as_a_policy_of_its_pairs() {
     for (name, n) in [("tiger.95.POMDP", 3), ("4x3.95.POMDP", 4), ("cheese.95.POMDP", 2)] {
         let w = world(name, 400, None);
         let t = w.tables();
@@ -431,8 +431,11 @@ fn a_mealy_machine_decides_values_and_exports_as_its_moore_machine() {
                 let y = if step == 0 { y1 - 1 } else { rng.random_range(0..y1 - 1) };
                 assert_eq!(c.step(&mut q, y, y1), moore.step(&mut p, y, y1), "{name} {k} step {step}");
             }
-            // Its value is its HHMM's exact value.
+            // Its value is its HHMM's exact value; the HHMM's memories are the nodes and the
+            // (decision, next node) pairs, not nodes × observations.
             let policy = c.to_hhmm(y1, t.n_actions()).unwrap();
+            let levels = policy.levels();
+            assert!(levels[1] <= n && levels[0] <= n * t.n_actions().min(y1), "{name} {k}: {levels:?}");
             let exact = infinite_horizon(&w, &policy, 1e-9).unwrap().value;
             assert!((value(&w, c, 1e-9) - exact).abs() < 1e-7, "{name} {k}");
         }
@@ -476,7 +479,7 @@ fn the_memoryless_stage_keeps_the_best_memoryless_policy_and_memory_adds_to_it()
     assert_eq!(widened - found_at, config.memoryless_patience);
     assert!(found.history.iter().filter(|r| r.widened).count() == 1);
     assert!(found.value > memoryless + 1.0, "{} vs memoryless {memoryless}", found.value);
-    assert_eq!(found.policy.levels()[0], found.policy.levels()[1]);
+    assert!(found.policy.levels()[1] <= config.nodes, "{:?}", found.policy.levels());
     // One node asked: the stage is the whole search.
     let one = ControllerConfig { nodes: 1, ..config };
     let found = optimize_controller(Valued::Exact(&tiger), &one, |_| Flow::Continue).unwrap();

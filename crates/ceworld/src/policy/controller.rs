@@ -10,8 +10,12 @@
 //!
 //! As an HHMM (model §2) a Moore machine is the two-level policy `[n, n]` with one-hot tables
 //! `h0[q] = act[q]`, `h1[y][u] = next[u·Y + y]`, `start = 0`, `step[p] = p`, so that
-//! evaluation, exact values, graphs and policy files take it as it is; a Mealy machine becomes
-//! the Moore machine whose nodes are its (node, observation) pairs ([`Controller::to_moore`]).
+//! evaluation, exact values, graphs and policy files take it as it is. A Mealy machine is the
+//! policy `[m, n]` whose upper memory is the node before the step (`n` nodes reached) and whose
+//! lower memory is the pair (decision, next node) the step takes (`m` pairs met):
+//! `h0[(d, q')] = d`, `h1[y][q] = (on[q·Y + y], next[q·Y + y])`, `start = 0`, `step[(d, q')] = q'`,
+//! tables that grow with the pairs, where the Moore machine of its (node, observation) pairs
+//! ([`Controller::to_moore`], which the exact values use) would square nodes × observations.
 //! A controller draws no randomness of its own.
 
 use crate::error::Result;
@@ -137,23 +141,73 @@ impl Controller {
 
     /// The two-level one-hot HHMM of this controller (module docs).
     pub fn to_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
-        let c = self.to_moore(n_obs);
-        let n = c.act.len();
+        if self.is_mealy() {
+            return self.mealy_hhmm(n_obs, n_actions);
+        }
+        let n = self.nodes();
         let layout = Layout::new(n_obs, n_actions, &[n, n])?.fits_in_memory()?;
         let mut probs = vec![0.0; layout.len];
         let t = &layout.tables;
-        for (q, &a) in c.act.iter().enumerate() {
+        for (q, &a) in self.act.iter().enumerate() {
             probs[t[0].offset + q * n_actions + a as usize] = 1.0;
         }
         for y in 0..n_obs {
             for u in 0..n {
-                probs[t[1].offset + (y * n + u) * n + c.next[u * n_obs + y] as usize] = 1.0;
+                probs[t[1].offset + (y * n + u) * n + self.next[u * n_obs + y] as usize] = 1.0;
             }
         }
         probs[t[2].offset] = 1.0;
         for p in 0..n {
             probs[t[3].offset + p * n + p] = 1.0;
         }
+        Hhmm::from_flat(layout, probs)
+    }
+
+    /// A Mealy machine's HHMM (module docs): the upper memory the node before the step (its
+    /// nodes reached from node 0, by rank), the lower one the pair (decision, next node) the
+    /// step takes (the pairs met, in order), so that the tables grow with the pairs, not with
+    /// nodes × observations.
+    fn mealy_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
+        let mut rank = vec![u32::MAX; self.nodes()];
+        let mut order = vec![0u32];
+        rank[0] = 0;
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        let mut pair_of = std::collections::HashMap::new();
+        // The pair of each reached node and observation, at rank·Y + y.
+        let mut taken = Vec::new();
+        let mut i = 0;
+        while i < order.len() {
+            let q = order[i] as usize;
+            for k in q * n_obs..(q + 1) * n_obs {
+                let to = self.next[k];
+                if rank[to as usize] == u32::MAX {
+                    rank[to as usize] = order.len() as u32;
+                    order.push(to);
+                }
+                let pair = (self.on[k], to);
+                let next_index = pairs.len();
+                let index = *pair_of.entry(pair).or_insert(next_index);
+                if index == next_index {
+                    pairs.push(pair);
+                }
+                taken.push(index);
+            }
+            i += 1;
+        }
+        let (m, n) = (pairs.len(), order.len());
+        let layout = Layout::new(n_obs, n_actions, &[m, n])?.fits_in_memory()?;
+        let mut probs = vec![0.0; layout.len];
+        let t = &layout.tables;
+        for (p, &(a, to)) in pairs.iter().enumerate() {
+            probs[t[0].offset + p * n_actions + a as usize] = 1.0;
+            probs[t[3].offset + p * n + rank[to as usize] as usize] = 1.0;
+        }
+        for u in 0..n {
+            for y in 0..n_obs {
+                probs[t[1].offset + (y * n + u) * m + taken[u * n_obs + y]] = 1.0;
+            }
+        }
+        probs[t[2].offset] = 1.0;
         Hhmm::from_flat(layout, probs)
     }
 }
@@ -173,5 +227,23 @@ impl Hhmm {
             }
         }
         Self::from_parts(self.layout.clone(), probs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mealy_machine_on_many_observations_has_tables_of_its_pairs() {
+        // One node over 5000 observations, deciding y mod 3: three pairs, one node (as the
+        // Moore machine of its pairs it would be [5001, 5001], 125 billion entries).
+        let n_obs = 5000;
+        let on: Vec<u32> = (0..n_obs as u32).map(|y| y % 3).collect();
+        let policy = Controller::mealy(on, vec![0; n_obs], n_obs).to_hhmm(n_obs, 3).unwrap();
+        assert_eq!(policy.levels(), [3, 1]);
+        // Two nodes that swap on every observation and decide the node: pairs (0, 1), (1, 0).
+        let swap = Controller::mealy(vec![0, 0, 1, 1], vec![1, 1, 0, 0], 2).to_hhmm(2, 2).unwrap();
+        assert_eq!(swap.levels(), [2, 2]);
     }
 }
