@@ -127,6 +127,21 @@ def test_episode_ce_on_a_python_world_on_ray_is_the_local_one(cluster):
         _same_run(remote, local)
 
 
+def test_a_callback_on_ray_stops_and_raises_as_it_does_locally(cluster):
+    # The iteration loop runs in the driver: its callback is called there, with the best policy.
+    settings = {**CORRIDOR, "max_iterations": None}
+    local = cehmm.optimize(Corridor(), init="random", **CORRIDOR)
+    seen = []
+    stop = lambda it: seen.append(it.best_policy().levels) or it["iteration"] < 2  # noqa: E731
+    remote = cehmm.optimize(Corridor(), init="random", backend="ray", workers=2, callback=stop, **settings)
+    assert remote.stop_reason == "callback" and seen == [[2, 2]] * 3
+    assert _tables(remote) == _tables(local) and remote.evaluation == local.evaluation
+    with pytest.raises(ZeroDivisionError):
+        cehmm.optimize_controller(
+            Corridor(), nodes=2, samples=16, progress=False, backend="ray", callback=lambda it: 1 / 0
+        )
+
+
 def test_a_scored_python_world_travels_as_what_it_was_made_from(cluster):
     world = cehmm.PythonWorld(Corridor(), score=worlds.reached, horizon=6, name="short corridor")
     local = cehmm.optimize(world, **CORRIDOR)

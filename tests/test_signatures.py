@@ -30,6 +30,8 @@ RUN_OPTIONS: dict[str, str] = {
     "value": "how a controller is valued: exact or sampled (optimize_controller)",
     "iterations": "the number of Q-learning updates, the run's length, not a learning setting",
     "progress": "a live progress line",
+    "callback": "called after every iteration with its record (cehmm.callbacks), may stop the run",
+    "tensorboard_log": "a folder for a TensorBoard event file of every iteration's scalars",
     "checkpoint": "the checkpoint file",
     "checkpoint_every": "seconds between checkpoints (a setting of CE_DEFAULTS and Q_DEFAULTS, where checked)",
     "resume": "whether to continue the checkpoint",

@@ -5,6 +5,7 @@ what its action space holds; all 42 POPGym environments learnt and played."""
 
 from __future__ import annotations
 
+import pickle
 from typing import Any
 
 import gymnasium as gym
@@ -51,8 +52,9 @@ def test_box_observations_are_cut_at_quantiles_of_a_warm_up_by_default() -> None
     assert len(x_edges) == 7 and np.allclose(x_edges, [10 * k / 8 for k in range(1, 8)], atol=0.4)
     assert flat_edges == [0.0]
     assert world.n_observations == 8 * 2
-    # The warm-up is seeded: the same edges again.
+    # The warm-up is seeded: the same edges again; a copy (for a backend's workers) keeps them.
     assert cehmm.PythonWorld(Line()).description["spaces"] == world.description["spaces"]
+    assert pickle.loads(pickle.dumps(world)).description == world.description
     # Box actions: 5 values a dimension between the bounds.
     assert world.description["spaces"]["action"]["values"] == [[-1.0, -0.5, 0.0, 0.5, 1.0]]
     assert world.n_decisions == 5

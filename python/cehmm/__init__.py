@@ -37,6 +37,7 @@ except ImportError as e:
         name="numpy",
     ) from e
 
+from . import callbacks
 from ._core import (
     ENGINE_VERSION,
     CehmmError,
@@ -87,6 +88,7 @@ __all__ = [
     "World",
     "WorldError",
     "__version__",
+    "callbacks",
     "evaluate_windows",
     "optimize",
     "optimize_controller",

@@ -6,7 +6,7 @@ numpy arrays: tables float64, rollouts int64, Q tables float32.
 """
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypedDict, final
 
 import numpy as np
@@ -280,6 +280,11 @@ class Policy:
     def graph(self, world: World | OutsideWorld, form: str, prune: float) -> Any: ...
     def most_likely(self) -> Policy: ...
 
+#: A run's per-iteration callback: ``callback(record, policy)``, the iteration's record (the
+#: history's fields and ``score``) and the best policy so far (``None`` for Q-learning); False
+#: stops the run (stop reason ``"callback"``), None or True goes on.
+_Callback = Callable[[dict[str, Any], Policy | None], bool | None]
+
 class _OptimizeOutcome(TypedDict):
     """``ceworld::CeResult`` with its best and last policies (wrapped by ``cehmm.OptimizeResult``)."""
 
@@ -331,6 +336,7 @@ def optimize(
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,
+    callback: _Callback | None = None,
 ) -> _OptimizeOutcome: ...
 
 class _ControllerOutcome(TypedDict):
@@ -357,6 +363,7 @@ def optimize_controller(
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,
+    callback: _Callback | None = None,
 ) -> _ControllerOutcome: ...
 
 class _RunOutcome(TypedDict):
@@ -377,6 +384,7 @@ def run(
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,
     resume: bool | None = None,
+    callback: _Callback | None = None,
 ) -> _RunOutcome: ...
 
 @final
@@ -434,7 +442,8 @@ class QLearner:
         progress: bool,
         checkpoint: str | os.PathLike[str] | None = None,
         checkpoint_every: float | None = None,
-    ) -> bool: ...
+        callback: _Callback | None = None,
+    ) -> str | None: ...
     def evaluate_windows(
         self,
         world: World,

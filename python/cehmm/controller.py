@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _core
 from .backend import Backend
+from .callbacks import CallbackLike, driven
 from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
@@ -53,7 +54,8 @@ class ControllerResult:
             after this iteration), ``widened`` (bool: the memoryless stage ended after this
             iteration) and ``seconds``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
-            ``"time_limit"`` or ``"interrupted"`` (Ctrl-C).
+            ``"time_limit"``, ``"target"``, ``"callback"`` (``callback=`` returned ``False``) or
+            ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
         best_iteration: the iteration that drew the best controller, within its run.
         restart: the run that found it.
@@ -128,6 +130,8 @@ def optimize_controller(
     backend: str | Backend = "local",
     workers: int | None = None,
     address: str | None = None,
+    callback: CallbackLike = None,
+    tensorboard_log: str | os.PathLike[str] | None = None,
 ) -> ControllerResult:
     """Searches a deterministic ``nodes``-node controller of ``world`` by the cross-entropy
     method over whole controllers (model §8).
@@ -256,12 +260,22 @@ def optimize_controller(
             :class:`~cehmm.RayBackend` (any :class:`cehmm.backend.Backend`; see :func:`optimize`).
         workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
         address: with ``backend="ray"``: the cluster to join.
+        callback: called after every iteration with its record (a :class:`cehmm.callbacks.Iteration`:
+            a dict of the history's scalars for that iteration, ``score`` its best value so far,
+            and the best policy so far on demand); returning ``False`` stops the run
+            (``stop_reason`` ``"callback"``; with ``restarts``, no later run starts; a checkpoint
+            is saved and resumes as at any stop).
+            A list of callbacks calls each in turn; an exception a callback raises stops the run
+            (its checkpoint saved) and propagates. See :mod:`cehmm.callbacks` for the built-ins.
+        tensorboard_log: a folder where every iteration's scalars are written as a TensorBoard
+            event file (:class:`cehmm.callbacks.TensorBoard`; needs ``pip install 'cehmm[tensorboard]'``).
 
     Returns:
         a :class:`ControllerResult`.
 
     Raises:
         TypeError: ``world`` is not a world, or an argument has the wrong type.
+        ImportError: ``tensorboard_log`` without tensorboardX installed.
         InvalidArgumentError: an argument out of its domain (``value="exact"`` on a world that
             is not tabular among them); the message names it and its value.
 
@@ -270,9 +284,12 @@ def optimize_controller(
         >>> result = optimize_controller(tiger, nodes=5, progress=False)  # doctest: +SKIP
         >>> round(result.value, 2)  # doctest: +SKIP
         19.37
+        >>> stopped = optimize_controller(tiger, nodes=3, progress=False, callback=lambda it: it["iteration"] < 1)
+        >>> stopped.stop_reason, len(stopped.history["iteration"])
+        ('callback', 2)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    with _sigterm_interrupts(checkpoint is not None):
+    with driven(callback, tensorboard_log) as hook, _sigterm_interrupts(checkpoint is not None):
         raw = _core.optimize_controller(
             sampled_world(core_world(world, **options), world, options, backend, workers, address),
             dict(
@@ -311,6 +328,7 @@ def optimize_controller(
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,
+            callback=hook,
         )
     found = raw["evaluation"]
     return ControllerResult(

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import _core
 from .backend import Backend
+from .callbacks import CallbackLike, driven
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
@@ -44,8 +45,8 @@ class OptimizeResult:
             seconds since the start) and ``successful`` (bool: the mean beat every earlier one).
         evaluation: :attr:`policy` evaluated on ``eval_episodes`` fresh episodes (unbiased,
             unlike the best iteration's mean).
-        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"target"`` or
-            ``"interrupted"`` (Ctrl-C).
+        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"target"``,
+            ``"callback"`` (``callback=`` returned ``False``) or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
         best_iteration: index of the best iteration.
         iterations: number of iterations run.
@@ -121,6 +122,8 @@ def optimize(
     backend: str | Backend = "local",
     workers: int | None = None,
     address: str | None = None,
+    callback: CallbackLike = None,
+    tensorboard_log: str | os.PathLike[str] | None = None,
 ) -> OptimizeResult:
     """Optimises an HHMM policy for ``world`` by Rubinstein's cross-entropy method (model §3).
 
@@ -184,11 +187,21 @@ def optimize(
         workers: with ``backend="ray"``: shards per iteration (default: the cluster's CPUs).
         address: with ``backend="ray"``: the cluster to join (default: the one this process
             joined, else a new local one).
+        callback: called after every iteration with its record (a :class:`cehmm.callbacks.Iteration`:
+            a dict of the history's scalars for that iteration, and the best policy so far on
+            demand); returning ``False`` stops the run (``stop_reason`` ``"callback"``; with
+            ``restarts``, no later run starts; a checkpoint is saved and resumes as at any stop).
+            A list of callbacks calls each in turn; an exception a callback raises stops the run
+            (its checkpoint saved) and propagates. See :mod:`cehmm.callbacks` for the built-ins.
+        tensorboard_log: a folder where every iteration's scalars are written as a TensorBoard
+            event file (:class:`cehmm.callbacks.TensorBoard`; needs ``pip install 'cehmm[tensorboard]'``).
 
     Returns:
         an :class:`OptimizeResult`.
 
     Raises:
+        TypeError: an argument of the wrong type (``callback`` not a callable or a list of them).
+        ImportError: ``tensorboard_log`` without tensorboardX installed.
         InvalidArgumentError: an argument out of its domain; the message names it and its value.
         PolicyMismatchError: ``init`` does not fit ``world``, or ``checkpoint`` was made with
             another world or other settings (the message names the first that differs).
@@ -199,11 +212,15 @@ def optimize(
         >>> result = optimize(world, levels=[4], samples=200, max_iterations=5, progress=False)
         >>> result.iterations, len(result.history["mean"])
         (5, 5)
+        >>> stopped = optimize(world, levels=[4], samples=200, progress=False,
+        ...                    callback=lambda it: it["iteration"] < 2)
+        >>> stopped.stop_reason, stopped.iterations
+        ('callback', 3)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    local = core_world(world, **options)
-    sampled = sampled_world(local, world, options, backend, workers, address)
-    with _sigterm_interrupts(checkpoint is not None):
+    with driven(callback, tensorboard_log) as hook, _sigterm_interrupts(checkpoint is not None):
+        local = core_world(world, **options)
+        sampled = sampled_world(local, world, options, backend, workers, address)
         raw = _core.optimize(
             sampled,
             _initial(local, levels, init, seed)._core,
@@ -226,6 +243,7 @@ def optimize(
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,
+            callback=hook,
         )
     return OptimizeResult._from_core(raw)
 

@@ -18,6 +18,7 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
+from .callbacks import CallbackLike, driven
 from .policy import Policy
 from .results import WindowEvaluation, windows
 from .world import World, core_world
@@ -60,6 +61,9 @@ class QLearner:
 
     Attributes:
         interrupted: whether Ctrl-C stopped the last :meth:`train`.
+        stop_reason: why the last :meth:`train` stopped: ``"iterations"`` (it ran them all),
+            ``"callback"`` (its ``callback`` returned ``False``) or ``"interrupted"`` (Ctrl-C);
+            ``None`` before any.
 
     Example:
         >>> world = TargetTracking(case=3, width=5, height=5, start_b=[0, 4], start_c=[4, 4],
@@ -69,13 +73,14 @@ class QLearner:
         (10000, (160000, 16))
     """
 
-    __slots__ = ("_core", "interrupted")
+    __slots__ = ("_core", "interrupted", "stop_reason")
 
     def __init__(self, core: _core.QLearner) -> None:
         if not isinstance(core, _core.QLearner):
             raise TypeError("use cehmm.qlearning or QLearner.load to make a QLearner")
         self._core = core
         self.interrupted = False
+        self.stop_reason: str | None = None
 
     @classmethod
     def new(
@@ -113,19 +118,35 @@ class QLearner:
         checkpoint: PathLike | None = None,
         checkpoint_every: float | None = None,
         progress: bool = True,
+        callback: CallbackLike = None,
+        tensorboard_log: PathLike | None = None,
     ) -> QLearner:
         """Runs updates until the run has ``iterations`` in all (a run is continued, not restarted).
 
         With ``checkpoint``, the run is saved there every ``checkpoint_every`` seconds (if given),
         when Ctrl-C stops it and at the end. Ctrl-C stops between chunks of about a million
-        updates and sets :attr:`interrupted` (no exception). Returns ``self``.
+        updates and sets :attr:`interrupted` (no exception). ``callback`` is called after every
+        chunk with its progress (a :class:`cehmm.callbacks.Iteration` without a policy: the table
+        cannot be read while it learns), and ``False`` stops it there (:attr:`stop_reason`
+        ``"callback"``, the checkpoint saved); ``tensorboard_log`` writes that progress to a
+        TensorBoard event file (see :func:`cehmm.optimize`). Returns ``self``.
+
+        Example:
+            >>> learner = QLearner.new(TargetTracking(case=3, width=5, height=5, start_b=[0, 4],
+            ...                        start_c=[4, 4], target_rows=[0, 2], target_cell=[2, 2]))
+            >>> learner.train(3 * 2**20, progress=False, callback=lambda it: False).stop_reason  # doctest: +SKIP
+            'callback'
         """
-        self.interrupted = self._core.train(
-            iterations,
-            progress=progress,
-            checkpoint=None if checkpoint is None else os.fspath(checkpoint),
-            checkpoint_every=checkpoint_every,
-        )
+        with driven(callback, tensorboard_log) as hook:
+            reason = self._core.train(
+                iterations,
+                progress=progress,
+                checkpoint=None if checkpoint is None else os.fspath(checkpoint),
+                checkpoint_every=checkpoint_every,
+                callback=hook,
+            )
+        self.interrupted = reason == "interrupted"
+        self.stop_reason = reason or "iterations"
         return self
 
     def evaluate_windows(
@@ -285,6 +306,8 @@ def qlearning(
     checkpoint_every: float | None = Q_DEFAULTS["checkpoint_every"],
     resume: bool = False,
     progress: bool = True,
+    callback: CallbackLike = None,
+    tensorboard_log: PathLike | None = None,
 ) -> QLearner:
     """Q-learning on ``world`` as a continuing task, the paper's baseline; returns the learner.
 
@@ -302,6 +325,9 @@ def qlearning(
         resume: continue the run saved in ``checkpoint`` (if the file exists) instead of starting
             afresh; the resumed run is exactly the one that was interrupted.
         progress: print a live progress line on stderr.
+        callback: called after every chunk of about a million updates with its progress;
+            ``False`` stops the run there (see :meth:`QLearner.train`).
+        tensorboard_log: a folder where that progress is written as a TensorBoard event file.
 
     Raises:
         MemoryError: the table would not fit in the memory the system reports available.
@@ -313,7 +339,14 @@ def qlearning(
         learner = QLearner(_core.QLearner.resume(os.fspath(checkpoint), core_world(world), settings))
     else:
         learner = QLearner(_core.QLearner(core_world(world), settings))
-    return learner.train(iterations, checkpoint=checkpoint, checkpoint_every=checkpoint_every, progress=progress)
+    return learner.train(
+        iterations,
+        checkpoint=checkpoint,
+        checkpoint_every=checkpoint_every,
+        progress=progress,
+        callback=callback,
+        tensorboard_log=tensorboard_log,
+    )
 
 
 def evaluate_windows(

@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _core
 from .backend import Backend
+from .callbacks import CallbackLike, driven
 from .optimizer import CE_DEFAULTS, _sigterm_interrupts
 from .outside import Score
 from .policy import Policy
@@ -33,8 +34,8 @@ class RunResult:
             ``mean``, ``best``, ``elite_threshold``, ``elite_mean``, ``seconds``,
             ``successful``).
         evaluation: :attr:`policy` on fresh episodes.
-        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"`` or
-            ``"interrupted"``.
+        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"callback"``
+            (``callback=`` returned ``False``) or ``"interrupted"``.
         seconds: wall time, every session together.
     """
 
@@ -64,6 +65,8 @@ def run(
     backend: str | Backend = "local",
     workers: int | None = None,
     address: str | None = None,
+    callback: CallbackLike = None,
+    tensorboard_log: str | os.PathLike[str] | None = None,
     **settings: Any,
 ) -> RunResult:
     """Runs the optimiser ``name`` (a key of :data:`OPTIMISERS`, e.g. ``"random-search"``) on
@@ -71,14 +74,25 @@ def run(
 
     The run options mean what they mean for :func:`optimize`: ``progress``, ``checkpoint``,
     ``checkpoint_every``, ``resume`` (bit for bit), ``score``, ``discount`` and ``horizon`` for
-    a world written in Python, ``backend``, ``workers`` and ``address`` for Ray.
+    a world written in Python, ``backend``, ``workers`` and ``address`` for Ray, ``callback``
+    and ``tensorboard_log`` (:mod:`cehmm.callbacks`: after every iteration; ``False`` stops the
+    run, ``stop_reason`` ``"callback"``).
 
     Raises:
         InvalidArgumentError: an unknown optimiser or setting, or a setting out of its domain.
+        TypeError: ``callback`` is not a callable or a list of them.
+        ImportError: ``tensorboard_log`` without tensorboardX installed.
+
+    Example:
+        >>> tiger = PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=20)
+        >>> result = run("random-search", tiger, samples=20, progress=False,
+        ...              callback=lambda it: it["iteration"] < 2)
+        >>> result.stop_reason, len(result.history["iteration"])
+        ('callback', 3)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    sampled = sampled_world(core_world(world, **options), world, options, backend, workers, address)
-    with _sigterm_interrupts(checkpoint is not None):
+    with driven(callback, tensorboard_log) as hook, _sigterm_interrupts(checkpoint is not None):
+        sampled = sampled_world(core_world(world, **options), world, options, backend, workers, address)
         raw = _core.run(
             name,
             sampled,
@@ -87,5 +101,6 @@ def run(
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,
+            callback=hook,
         )
     return RunResult(**{**raw, "policy": Policy(raw["policy"]), "evaluation": evaluation(raw["evaluation"])})

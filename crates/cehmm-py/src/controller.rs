@@ -21,9 +21,10 @@ use crate::run::{checkpointing, watched};
 /// Searches a deterministic controller of any world (model §8) with `settings` (keyword
 /// settings by name; one left out, or `None` for `samples`, `rho`, `smoothing`, `template`,
 /// `decisions`, `memoryless_patience` and `memory`, has the default of the kind of value used); Ctrl-C stops
-/// it between iterations and the result comes back marked interrupted.
+/// it between iterations and the result comes back marked interrupted; `callback` is called
+/// after every iteration (`crate::run::PyCallback`).
 #[pyfunction]
-#[pyo3(signature = (world, settings, *, value=None, progress, checkpoint=None, checkpoint_every=None, resume=None))]
+#[pyo3(signature = (world, settings, *, value=None, progress, checkpoint=None, checkpoint_every=None, resume=None, callback=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn optimize_controller<'py>(
     py: Python<'py>,
@@ -34,6 +35,7 @@ pub fn optimize_controller<'py>(
     checkpoint: Option<std::path::PathBuf>,
     checkpoint_every: Option<&Bound<'py, PyAny>>,
     resume: Option<&Bound<'py, PyAny>>,
+    callback: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let kind = value.map(|v| text("value", v)).transpose()?.map(|v| ValueKind::parse(&v)).transpose().or_raise()?;
     let settings = named(settings)?;
@@ -47,7 +49,8 @@ pub fn optimize_controller<'py>(
         let outcome = run::controller(valued, &config, options)?;
         Ok((outcome.to_file(valued.episodes(), &config), outcome))
     };
-    let (file, o) = watched(py, &world, progress, checkpointing.as_ref(), search, |o| o.1.checkpoint_error.as_deref())?;
+    let (file, o) =
+        watched(py, &world, progress, checkpointing.as_ref(), callback, search, |o| o.1.checkpoint_error.as_deref())?;
     let result = PyDict::new(py);
     result.set_item("history", columns(py, &o.history)?)?;
     result.set_item("policy", PyPolicy { file })?;

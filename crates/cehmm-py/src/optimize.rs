@@ -18,9 +18,10 @@ use crate::run::{checkpointing, watched};
 
 /// Runs the cross-entropy method (model §3) from `initial` with `settings` (keyword settings by
 /// name; one left out has its default), checkpointed when `checkpoint` is given; Ctrl-C stops it
-/// between iterations and the result comes back marked interrupted.
+/// between iterations and the result comes back marked interrupted; `callback` is called after
+/// every iteration (`crate::run::PyCallback`).
 #[pyfunction]
-#[pyo3(signature = (world, initial, settings, *, progress, checkpoint=None, checkpoint_every=None, resume=None))]
+#[pyo3(signature = (world, initial, settings, *, progress, checkpoint=None, checkpoint_every=None, resume=None, callback=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn optimize<'py>(
     py: Python<'py>,
@@ -31,6 +32,7 @@ pub fn optimize<'py>(
     checkpoint: Option<PathBuf>,
     checkpoint_every: Option<&Bound<'py, PyAny>>,
     resume: Option<&Bound<'py, PyAny>>,
+    callback: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let mut config = CeConfig::default();
     apply_settings(&mut config, settings)?;
@@ -42,7 +44,7 @@ pub fn optimize<'py>(
         Ok((r.to_file(w, &config), r.last_to_file(w, &config), r))
     };
     let (best, last, r) =
-        watched(py, &world, progress, checkpointing.as_ref(), run, |o| o.2.checkpoint_error.as_deref())?;
+        watched(py, &world, progress, checkpointing.as_ref(), callback, run, |o| o.2.checkpoint_error.as_deref())?;
     let result = PyDict::new(py);
     result.set_item("history", columns(py, &r.history)?)?;
     result.set_item("policy", PyPolicy { file: best })?;

@@ -14,6 +14,7 @@ use ceworld::{thread_pool, with_learner};
 use crate::convert::{apply_settings, count, flag, optional_count, optional_real, real, seed, text, to_py};
 use crate::errors::{OrRaise, detached};
 use crate::policy::PyPolicy;
+use crate::run::PyCallback;
 use crate::signals::Signals;
 use crate::world::PyWorld;
 
@@ -108,8 +109,10 @@ impl PyQLearner {
     }
 
     /// Runs until `until` updates in all; Ctrl-C stops between chunks of updates (after saving
-    /// the checkpoint, when there is one); returns whether it was interrupted.
-    #[pyo3(signature = (until, *, progress, checkpoint = None, checkpoint_every = None))]
+    /// the checkpoint, when there is one), and so does `callback` (called after every chunk:
+    /// `crate::run::PyCallback`); returns why it stopped early (`"interrupted"`, `"callback"`)
+    /// or `None`.
+    #[pyo3(signature = (until, *, progress, checkpoint = None, checkpoint_every = None, callback = None))]
     fn train(
         &mut self,
         py: Python<'_>,
@@ -117,24 +120,29 @@ impl PyQLearner {
         progress: &Bound<'_, PyAny>,
         checkpoint: Option<PathBuf>,
         checkpoint_every: Option<&Bound<'_, PyAny>>,
-    ) -> PyResult<bool> {
+        callback: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Option<&'static str>> {
         let until = self::seed("iterations", until)?;
         let progress = flag("progress", progress)?;
         let every = optional_real("checkpoint_every", checkpoint_every)?;
         let learner = &mut self.learner;
         let mut signals = Signals::default();
+        let callback = PyCallback::new(callback, signals.interrupt())?;
         let interrupt = signals.interrupt().clone();
         let outcome = signals.watch(py, || {
             ceworld::catch_panics(|| {
                 let stop = || interrupt.flow();
-                let options = ceworld::run::RunOptions { progress, checkpointing: None, stop: &stop };
+                let call = callback.as_ref().map(|c| move |it: &ceworld::run::Iteration<'_>| c.call(it));
+                let callback = call.as_ref().map(|c| c as _);
+                let options = ceworld::run::RunOptions { progress, checkpointing: None, stop: &stop, callback };
                 with_learner!(learner, q => ceworld::run::qlearn(q, until, checkpoint.as_deref(), every, &options))
             })
         })?;
+        callback.map(PyCallback::finish).transpose()?;
         signals.finish(py)?;
         let outcome = outcome.or_raise()?;
         crate::errors::warn_checkpoint(py, outcome.checkpoint_error.as_deref())?;
-        Ok(outcome.interrupted)
+        Ok(outcome.stop.map(ceworld::StopReason::as_str))
     }
 
     /// The greedy policy evaluated on windows of `world`; ties broken as in learning unless

@@ -14,6 +14,22 @@ pub enum Flow {
     Continue,
     /// Stop now and return what there is (marked as interrupted).
     Stop,
+    /// Stop now as a stopping rule does (stop reason `callback`): the run ends after this
+    /// iteration, its result evaluated in full; its checkpoint keeps the run, so that a resume
+    /// goes on from there.
+    Finish,
+}
+
+impl Flow {
+    /// The stronger of two answers: a stop over a finish over going on.
+    #[must_use]
+    pub fn and(self, other: Flow) -> Flow {
+        match (self, other) {
+            (Flow::Stop, _) | (_, Flow::Stop) => Flow::Stop,
+            (Flow::Finish, _) | (_, Flow::Finish) => Flow::Finish,
+            _ => Flow::Continue,
+        }
+    }
 }
 
 /// A stop asked of a computation from another thread (the interpreter's main thread when the
@@ -143,6 +159,16 @@ mod tests {
         shared.request();
         assert!(interrupt.aborted());
         assert!(matches!(interrupt.check(), Err(Error::Interrupted)), "an abort cuts in a grace too");
+    }
+
+    #[test]
+    fn the_stronger_flow_wins() {
+        let all = [Flow::Continue, Flow::Finish, Flow::Stop];
+        for (i, a) in all.iter().enumerate() {
+            for (j, b) in all.iter().enumerate() {
+                assert_eq!(a.and(*b), all[i.max(j)], "{a:?} and {b:?}");
+            }
+        }
     }
 
     #[test]

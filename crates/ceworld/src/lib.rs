@@ -40,7 +40,7 @@ pub use ce::init::{Init, clock_policy, random_policy, uniform_policy};
 pub use ce::optimize::{optimize, optimize_with};
 pub use ce::record::{CeResult, IterationRecord};
 pub use ce::resume::Checkpointing;
-pub use ce::stopping::StopReason;
+pub use ce::stopping::{Observed, StopReason};
 pub use control::{Flow, Interrupt, catch_panics, thread_pool};
 pub use episodes::{Episodes, Shape};
 pub use error::{Error, Result};

@@ -1,18 +1,21 @@
 //! A run of any optimiser, as every front end (the command line, the Python bindings) starts it:
 //! the one place where an optimiser meets its run options, the progress line on stderr, the
-//! checkpoints and what stops it, and where the defaults that depend on the world are resolved
-//! (a controller search's kind of value). A front end turns its arguments into a config and
-//! [`RunOptions`], then calls one function here.
+//! checkpoints, what stops it and the caller's per-iteration callback, and where the defaults
+//! that depend on the world are resolved (a controller search's kind of value). A front end
+//! turns its arguments into a config and [`RunOptions`], then calls one function here.
 
+use std::cell::OnceCell;
 use std::path::Path;
 
-use crate::ce::controller::{ControllerConfig, ControllerOutcome, ValueKind, Valued, optimize_controller_with};
-use serde_json::{Map, Value};
+use crate::ce::controller::{ControllerConfig, ControllerOutcome, ValueKind, Valued, optimize_controller_observed};
+use serde::Serialize;
+use serde_json::{Map, Value, json};
 
 use crate::ce::random_search::RandomSearch;
 use crate::ce::record::CeResult;
 use crate::ce::resume::{Checkpoint, Checkpointing, Peek};
-use crate::ce::stepped::{Stepped, SteppedKind, SteppedOutcome, run_stepped};
+use crate::ce::stepped::{Stepped, SteppedKind, SteppedOutcome, run_stepped_observed};
+use crate::ce::stopping::Observed;
 use crate::control::Flow;
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
@@ -20,7 +23,7 @@ use crate::policy::Hhmm;
 use crate::policy::file::PolicyFile;
 use crate::progress::{LiveLine, Progress, Step};
 use crate::qlearn::{KnownState, QLearner, TrainOutcome};
-use crate::settings::{Named, apply};
+use crate::settings::{Named, Settings, apply};
 
 /// How a run is watched, whatever the optimiser: its progress, its checkpoints and what stops
 /// it.
@@ -32,33 +35,99 @@ pub struct RunOptions<'a> {
     /// Asked after every iteration: [`Flow::Stop`] stops the run, which returns what it has,
     /// marked interrupted (a signal, Ctrl-C).
     pub stop: &'a (dyn Fn() -> Flow + Sync),
+    /// Called after every iteration, after `stop`, with the iteration's record and the best
+    /// policy so far ([`Iteration`]): [`Flow::Finish`] stops the run as a stopping rule does,
+    /// for [`crate::StopReason::Callback`] (every restart with it); [`Flow::Stop`] as `stop` does.
+    pub callback: Option<Callback<'a>>,
+}
+
+/// A run's per-iteration callback ([`RunOptions::callback`]).
+pub type Callback<'a> = &'a (dyn Fn(&Iteration<'_>) -> Flow + Sync);
+
+/// One iteration as a run's callback sees it.
+pub struct Iteration<'a> {
+    /// The iteration's record by name: the fields of the optimiser's history entry (one row of
+    /// its history), and `score`, what the optimiser chooses its result by, as of this
+    /// iteration ([`Step::score`]: the iteration's mean for the CE method, the best value so
+    /// far for the controller search). Q-learning: its progress after a chunk of updates
+    /// ([`crate::qlearn::QProgress`]) and `iteration`, the chunk's number in this call (from 0).
+    pub record: &'a Map<String, Value>,
+    /// Whether the best policy may differ from the one of the callback's last call (true at
+    /// the first): a caller that keeps it asks [`Iteration::best_policy`] again only then.
+    pub best_changed: bool,
+    best: &'a dyn Fn() -> Result<Option<PolicyFile>>,
+}
+
+impl Iteration<'_> {
+    /// The best policy so far (of the current run where there are restarts), as a file whose
+    /// provenance holds the run's settings and `"policy": "best so far"`; `None` where the
+    /// optimiser has no policy (Q-learning). Made when asked: a copy of its tables.
+    pub fn best_policy(&self) -> Result<Option<PolicyFile>> {
+        (self.best)()
+    }
 }
 
 impl RunOptions<'_> {
-    /// A quiet run without checkpoints that nothing stops.
+    /// A quiet run without checkpoints or callback that nothing stops.
     pub fn quiet() -> RunOptions<'static> {
-        RunOptions { progress: false, checkpointing: None, stop: &|| Flow::Continue }
+        RunOptions { progress: false, checkpointing: None, stop: &|| Flow::Continue, callback: None }
     }
 
     /// Runs `body` with the observer it gives its optimiser: the progress line of a run of
-    /// `patience` and `restarts`, updated at every iteration, then [`RunOptions::stop`] asked.
-    fn watch<S: Step, T>(
+    /// `patience` and `restarts`, updated at every iteration, then [`RunOptions::stop`] asked and
+    /// [`RunOptions::callback`] called (its best policy a file made by `to_file`).
+    fn watch<S: Step + Serialize, T>(
         &self,
         patience: usize,
         restarts: usize,
-        body: impl FnOnce(&mut dyn FnMut(&S) -> Flow) -> Result<T>,
+        to_file: &dyn Fn(Hhmm) -> PolicyFile,
+        body: impl FnOnce(&mut dyn FnMut(&Observed<'_, S>) -> Flow) -> Result<T>,
     ) -> Result<T> {
         let mut line = self.progress.then(|| Progress::new(patience, restarts, LiveLine::stderr()));
-        let outcome = body(&mut |step| {
+        let mut first = true;
+        let outcome = body(&mut |seen| {
             if let Some(line) = &mut line {
-                line.update(step);
+                line.update(seen.step);
             }
-            (self.stop)()
+            let asked = (self.stop)();
+            let called = self.callback.map_or(Flow::Continue, |callback| {
+                let mut record = fields(seen.step);
+                record.insert("score".into(), json!(seen.step.score()));
+                let best_changed = std::mem::take(&mut first) || seen.step.record().successful;
+                let best = || (seen.best)().map(|policy| Some(to_file(policy)));
+                callback(&Iteration { record: &record, best_changed, best: &best })
+            });
+            asked.and(called)
         });
         if let Some(line) = line {
             line.finish();
         }
         outcome
+    }
+}
+
+/// A record's fields by name (none where it is not a JSON object).
+fn fields<T: Serialize>(record: &T) -> Map<String, Value> {
+    match serde_json::to_value(record) {
+        Ok(Value::Object(map)) => map,
+        _ => Map::new(),
+    }
+}
+
+/// How a run's best policy so far becomes a file for its callback: on `world`, with
+/// `provenance` (the run's settings) and `"policy": "best so far"`; the world's description is
+/// made once.
+fn best_so_far<E: Episodes + ?Sized>(
+    world: &E,
+    mut provenance: Map<String, Value>,
+) -> impl Fn(Hhmm) -> PolicyFile + '_ {
+    provenance.insert("policy".into(), json!("best so far"));
+    provenance.insert("version".into(), json!(crate::VERSION));
+    let description = OnceCell::new();
+    move |policy| PolicyFile {
+        policy,
+        world: description.get_or_init(|| world.description()).clone(),
+        provenance: Value::Object(provenance.clone()),
     }
 }
 
@@ -69,8 +138,11 @@ pub fn optimize<E: Episodes + ?Sized>(
     config: &crate::CeConfig,
     options: &RunOptions<'_>,
 ) -> Result<CeResult> {
-    options.watch(config.patience, config.restarts, |observe| {
-        crate::ce::optimize::optimize_with(world, initial, config, options.checkpointing, observe)
+    let mut provenance = config.provenance();
+    // SPEC §6 names the smoothing `alpha` (as the result's file does).
+    provenance.insert("alpha".into(), json!(config.smoothing));
+    options.watch(config.patience, config.restarts, &best_so_far(world, provenance), |observe| {
+        crate::ce::optimize::optimize_observed(world, initial, config, options.checkpointing, observe)
     })
 }
 
@@ -91,13 +163,17 @@ pub fn controller_setup(
 /// The cross-entropy method over deterministic controllers (model §8) of `world`, valued as
 /// `world` says, with `config` (from [`controller_setup`]).
 pub fn controller(world: Valued<'_>, config: &ControllerConfig, options: &RunOptions<'_>) -> Result<ControllerOutcome> {
-    options.watch(config.patience, config.restarts, |observe| {
-        optimize_controller_with(world, config, options.checkpointing, observe)
+    let mut provenance = config.provenance();
+    provenance.insert("method".into(), json!("controller-ce"));
+    provenance.insert("value".into(), json!(world.kind().as_str()));
+    options.watch(config.patience, config.restarts, &best_so_far(world.episodes(), provenance), |observe| {
+        optimize_controller_observed(world, config, options.checkpointing, observe)
     })
 }
 
 /// Q-learning (model §5) of `learner` until `until` updates in all, checkpointed to `checkpoint`
-/// every `every` seconds (and when it stops).
+/// every `every` seconds (and when it stops); the options' stop and callback are asked after
+/// every chunk of updates (its callback has no best policy).
 pub fn qlearn<W: KnownState>(
     learner: &mut QLearner<W>,
     until: u64,
@@ -106,11 +182,19 @@ pub fn qlearn<W: KnownState>(
     options: &RunOptions<'_>,
 ) -> Result<TrainOutcome> {
     let mut line = options.progress.then(LiveLine::stderr);
+    let mut chunk = 0usize;
     let outcome = learner.train(until, checkpoint, every, |p| {
         if let Some(line) = &mut line {
             line.update(p.line());
         }
-        (options.stop)()
+        let asked = (options.stop)();
+        let called = options.callback.map_or(Flow::Continue, |callback| {
+            let mut record = fields(p);
+            record.insert("iteration".into(), json!(chunk));
+            callback(&Iteration { record: &record, best_changed: chunk == 0, best: &|| Ok(None) })
+        });
+        chunk += 1;
+        asked.and(called)
     });
     if let Some(line) = line {
         line.finish();
@@ -176,8 +260,152 @@ fn run_named<O: Stepped>(
     apply(&mut config, settings)?;
     // `run_stepped` validates it before it starts.
     let rules = O::rules(&config);
-    let outcome =
-        options.watch(rules.patience, 1, |observe| run_stepped::<O>(world, &config, options.checkpointing, observe))?;
+    let mut provenance = config.provenance();
+    provenance.insert("method".into(), json!(O::NAME));
+    let to_file = best_so_far(world, provenance);
+    let outcome = options.watch(rules.patience, 1, &to_file, |observe| {
+        run_stepped_observed::<O>(world, &config, options.checkpointing, observe)
+    })?;
     let file = outcome.to_file(world, O::NAME, &config);
     Ok((outcome, file))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use super::*;
+    use crate::ce::stopping::StopReason;
+    use crate::world::pomdp::PomdpWorld;
+    use crate::{CeConfig, QConfig, TargetTracking, TrackingParams, random_policy};
+
+    /// What a callback saw: each record, whether the best changed, and the best policy then.
+    type Seen = Mutex<Vec<(Map<String, Value>, bool, Option<PolicyFile>)>>;
+
+    /// A callback that keeps what it sees and answers `flow` at the iteration `at` (by count).
+    fn keeping(seen: &Seen, at: usize, flow: Flow) -> impl Fn(&Iteration<'_>) -> Flow + Sync + '_ {
+        move |it: &Iteration<'_>| {
+            let mut seen = seen.lock().unwrap();
+            seen.push((it.record.clone(), it.best_changed, it.best_policy().unwrap()));
+            if seen.len() == at + 1 { flow } else { Flow::Continue }
+        }
+    }
+
+    fn options<'a>(callback: Callback<'a>, stop: &'a (dyn Fn() -> Flow + Sync)) -> RunOptions<'a> {
+        RunOptions { progress: false, checkpointing: None, stop, callback: Some(callback) }
+    }
+
+    fn ce(max_iterations: Option<usize>, restarts: usize) -> CeConfig {
+        CeConfig { samples: 100, rho: 0.2, max_iterations, eval_episodes: 50, seed: 3, restarts, ..CeConfig::default() }
+    }
+
+    #[test]
+    fn a_callback_that_finishes_at_iteration_k_is_max_iterations_k_and_sees_every_record() {
+        let world = TargetTracking::new(1).unwrap();
+        let initial = random_policy(&world, &[3], 5).unwrap();
+        let whole = optimize(&world, initial.clone(), &ce(Some(3), 1), &RunOptions::quiet()).unwrap();
+        let seen = Seen::default();
+        let callback = keeping(&seen, 2, Flow::Finish);
+        let cut = optimize(&world, initial, &ce(None, 1), &options(&callback, &|| Flow::Continue)).unwrap();
+        assert_eq!((whole.stop, cut.stop), (StopReason::MaxIterations, StopReason::Callback));
+        assert!(!cut.interrupted());
+        assert_eq!(cut.policy, whole.policy);
+        assert_eq!(cut.last_policy, whole.last_policy);
+        let timeless =
+            |r: &CeResult| r.history.iter().map(|h| (h.mean, h.best, h.elite_mean, h.successful)).collect::<Vec<_>>();
+        assert_eq!(timeless(&cut), timeless(&whole));
+        assert_eq!(cut.evaluation, whole.evaluation, "evaluated in full, as after a stopping rule");
+        let seen = std::mem::take(&mut *seen.lock().unwrap());
+        assert_eq!(seen.len(), 3);
+        for (k, (record, changed, best)) in seen.iter().enumerate() {
+            let h = &whole.history[k];
+            assert_eq!(record["iteration"], json!(k));
+            assert_eq!((record["mean"].as_f64(), record["score"].as_f64()), (Some(h.mean), Some(h.mean)));
+            for key in ["best", "elite_threshold", "elite_mean", "seconds", "successful"] {
+                assert!(record.contains_key(key), "{key} in {record:?}");
+            }
+            assert_eq!(*changed, k == 0 || h.successful);
+            let best = best.as_ref().expect("the CE method has a best policy");
+            assert_eq!(best.provenance["policy"], "best so far");
+            assert_eq!(best.provenance["alpha"], json!(ce(None, 1).smoothing));
+        }
+        assert_eq!(seen[2].2.as_ref().unwrap().policy, whole.policy, "the best so far at the end is the result's");
+    }
+
+    #[test]
+    fn a_finish_ends_every_restart_and_a_stop_wins_over_it() {
+        let world = TargetTracking::new(1).unwrap();
+        let initial = random_policy(&world, &[3], 5).unwrap();
+        let seen = Seen::default();
+        let callback = keeping(&seen, 1, Flow::Finish);
+        let cut = optimize(&world, initial.clone(), &ce(Some(4), 3), &options(&callback, &|| Flow::Continue)).unwrap();
+        assert_eq!(cut.stop, StopReason::Callback);
+        assert_eq!((cut.history.len(), cut.restart_scores.len()), (2, 1), "no later restart starts");
+        let seen = Seen::default();
+        let callback = keeping(&seen, 0, Flow::Finish);
+        let stopped = optimize(&world, initial, &ce(Some(4), 1), &options(&callback, &|| Flow::Stop)).unwrap();
+        assert_eq!((stopped.stop, stopped.history.len()), (StopReason::Interrupted, 1));
+    }
+
+    #[test]
+    fn the_controller_search_and_a_stepped_optimiser_finish_as_their_callback_asks() {
+        let file = format!("{}/../../data/pomdp/tiger.95.POMDP", env!("CARGO_MANIFEST_DIR"));
+        let world = PomdpWorld::from_file(file, 20, None).unwrap();
+        let settings = |c: &mut ControllerConfig| {
+            *c = ControllerConfig { nodes: 3, samples: 200, model_nodes: 0, ..c.clone() };
+            Ok(())
+        };
+        let (valued, config) = controller_setup(&world, None, settings).unwrap();
+        let seen = Seen::default();
+        let callback = keeping(&seen, 1, Flow::Finish);
+        let cut = controller(valued, &config, &options(&callback, &|| Flow::Continue)).unwrap();
+        let whole = controller(valued, &ControllerConfig { max_iterations: Some(2), ..config }, &RunOptions::quiet());
+        let whole = whole.unwrap();
+        assert_eq!((cut.stop, whole.stop), (StopReason::Callback, StopReason::MaxIterations));
+        assert_eq!((cut.policy == whole.policy, cut.value, cut.history.len()), (true, whole.value, 2));
+        let seen = std::mem::take(&mut *seen.lock().unwrap());
+        let (record, _, best) = &seen[1];
+        assert_eq!((record["restart"].as_u64(), record["score"].as_f64()), (Some(0), Some(cut.history[1].best_so_far)));
+        assert_eq!(best.as_ref().unwrap().policy, cut.policy);
+        assert_eq!(best.as_ref().unwrap().provenance["method"], "controller-ce");
+
+        let seen = Seen::default();
+        let callback = keeping(&seen, 2, Flow::Finish);
+        let settings = [Named { name: "samples".into(), shown: "20".into(), value: crate::settings::Given::Int(20) }];
+        let (outcome, _) =
+            (optimiser("random-search").unwrap().run)(&world, &settings, &options(&callback, &|| Flow::Continue))
+                .unwrap();
+        assert_eq!((outcome.stop, outcome.history.len()), (StopReason::Callback, 3));
+        let seen = std::mem::take(&mut *seen.lock().unwrap());
+        assert_eq!(seen[2].2.as_ref().unwrap().policy, outcome.policy);
+        assert_eq!(seen[2].2.as_ref().unwrap().provenance["method"], "random-search");
+    }
+
+    #[test]
+    fn q_learning_finishes_after_the_chunk_its_callback_stops() {
+        let world = TargetTracking::with_params(TrackingParams {
+            width: 5,
+            height: 5,
+            start_b: [0, 4],
+            start_c: [4, 4],
+            target_rows: [0, 2],
+            target_cell: [2, 2],
+            ..TrackingParams::default()
+        })
+        .unwrap();
+        let mut learner = QLearner::new(world, QConfig::default()).unwrap();
+        let seen = Seen::default();
+        let callback = keeping(&seen, 0, Flow::Finish);
+        let outcome =
+            qlearn(&mut learner, 3 * crate::qlearn::CHUNK, None, None, &options(&callback, &|| Flow::Continue))
+                .unwrap();
+        assert_eq!(
+            (outcome.updates, outcome.stop, outcome.interrupted),
+            (crate::qlearn::CHUNK, Some(StopReason::Callback), false)
+        );
+        let seen = std::mem::take(&mut *seen.lock().unwrap());
+        let (record, changed, best) = &seen[0];
+        assert_eq!((record["iteration"].as_u64(), record["updates"].as_u64()), (Some(0), Some(crate::qlearn::CHUNK)));
+        assert!(*changed && best.is_none(), "Q-learning has no policy to show");
+    }
 }

@@ -11,7 +11,7 @@ pub use crate::ce::limits::MAX_RECORD_BYTES;
 use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
 use crate::ce::record::{CeResult, IterationRecord};
 use crate::ce::resume::{Checkpointing, Saver};
-use crate::ce::stopping::StopReason;
+use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::{Batch, Episodes, Remote, Streams};
 use crate::error::{Error, Result};
@@ -41,13 +41,26 @@ pub fn optimize<E: Episodes + ?Sized>(
 /// seconds and whenever it stops, and, with `checkpointing.resume`, continuing from that file
 /// when it exists: the result is then the one an uninterrupted run gives, bit for bit (the
 /// seconds and a time limit aside). `initial` is used by the runs that have not started.
-#[allow(clippy::needless_pass_by_value)] // taken like `optimize`'s
 pub fn optimize_with<E: Episodes + ?Sized>(
     world: &E,
     initial: Hhmm,
     config: &CeConfig,
     checkpointing: Option<&Checkpointing>,
     mut observer: impl FnMut(&IterationRecord) -> Flow,
+) -> Result<CeResult> {
+    optimize_observed(world, initial, config, checkpointing, |seen| observer(seen.step))
+}
+
+/// [`optimize_with`], its observer shown the best policy so far on demand too ([`Observed`]).
+/// An observer's [`Flow::Finish`] ends every restart: the result is the best of the runs so far,
+/// stopped for [`StopReason::Callback`], and a resume continues the run it cut.
+#[allow(clippy::needless_pass_by_value)] // taken like `optimize`'s
+pub fn optimize_observed<E: Episodes + ?Sized>(
+    world: &E,
+    initial: Hhmm,
+    config: &CeConfig,
+    checkpointing: Option<&Checkpointing>,
+    mut observer: impl FnMut(&Observed<'_, IterationRecord>) -> Flow,
 ) -> Result<CeResult> {
     config.validate()?;
     check_fits(world, &initial)?;
@@ -104,7 +117,7 @@ pub fn optimize_with<E: Episodes + ?Sized>(
             result.stop = StopReason::Interrupted;
         }
         let score = crate::evaluate::mean(scored.iter().copied());
-        if result.interrupted() {
+        if result.stop.halted() {
             // The checkpoint keeps this run's state, to be continued.
             interrupted = Some(FinishedRun { score, result });
             break;
@@ -121,8 +134,9 @@ pub fn optimize_with<E: Episodes + ?Sized>(
         .fold(0, |b, (i, r)| if r.score > runs[b].score || runs[b].score.is_nan() { i } else { b });
     let scores = runs.iter().map(|r| r.score).collect();
     let mut result = runs.swap_remove(best).result.clone();
-    if interrupted.is_some() || stopped {
-        result.stop = StopReason::Interrupted;
+    // Stopped by the caller: the search is, whichever run is returned.
+    if let Some(halted) = stopped.then_some(StopReason::Interrupted).or(interrupted.as_ref().map(|r| r.result.stop)) {
+        result.stop = halted;
     }
     result.seconds = saver.seconds();
     result.restart_scores = scores;
@@ -172,7 +186,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     initial: Hhmm,
     config: &CeConfig,
     resume: Option<RunState>,
-    observer: &mut dyn FnMut(&IterationRecord) -> Flow,
+    observer: &mut dyn FnMut(&Observed<'_, IterationRecord>) -> Flow,
     saver: &mut Saver<'_, CeRun>,
 ) -> Result<CeResult> {
     if config.memory_update == MemoryUpdate::ForwardBackward {
@@ -257,11 +271,10 @@ fn optimize_once<E: Episodes + ?Sized>(
             successful,
         };
         history.push(record.clone());
-        stop = if observer(&record) == Flow::Stop || world.interrupt().is_some_and(Interrupt::stopping) {
-            Some(StopReason::Interrupted)
-        } else {
-            stopping_rule(config, &record, unsuccessful)
-        };
+        let best_policy = || Ok(best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"));
+        let flow = observer(&Observed { step: &record, best: &best_policy });
+        let interrupted = world.interrupt().is_some_and(Interrupt::stopping).then_some(StopReason::Interrupted);
+        stop = interrupted.or(StopReason::asked(flow)).or_else(|| stopping_rule(config, &record, unsuccessful));
         saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful));
     }
     let stop = stop.expect("the loop ends with a reason");

@@ -12,7 +12,7 @@ use serde_json::json;
 
 use crate::ce::record::IterationRecord;
 use crate::ce::resume::{Checkpointing, Resumable, Saver};
-use crate::ce::stopping::StopReason;
+use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, thread_pool};
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
@@ -150,6 +150,16 @@ pub fn run_stepped<O: Stepped>(
     checkpointing: Option<&Checkpointing>,
     mut observe: impl FnMut(&IterationRecord) -> Flow,
 ) -> Result<SteppedOutcome> {
+    run_stepped_observed::<O>(world, config, checkpointing, |seen| observe(seen.step))
+}
+
+/// [`run_stepped`], its observer shown the best policy so far on demand too ([`Observed`]).
+pub fn run_stepped_observed<O: Stepped>(
+    world: &dyn Episodes,
+    config: &O::Config,
+    checkpointing: Option<&Checkpointing>,
+    mut observe: impl FnMut(&Observed<'_, IterationRecord>) -> Flow,
+) -> Result<SteppedOutcome> {
     O::validate(config)?;
     let rules = O::rules(config);
     crate::evaluate::check_episodes(rules.eval_episodes)?;
@@ -187,8 +197,9 @@ pub fn run_stepped<O: Stepped>(
         run.since = if record.successful { 0 } else { run.since + 1 };
         run.history.push(record.clone());
         saver.save_run(false, || run.clone());
-        if observe(&record) == Flow::Stop {
-            break StopReason::Interrupted;
+        let best = || run.state.policy(world);
+        if let Some(stop) = StopReason::asked(observe(&Observed { step: &record, best: &best })) {
+            break stop;
         }
     };
     saver.save_run(true, || run.clone());

@@ -3,6 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::control::Flow;
+use crate::error::Result;
+use crate::policy::Hhmm;
+
 /// Why an optimisation stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -17,6 +21,8 @@ pub enum StopReason {
     Target,
     /// The caller asked to stop (Ctrl-C).
     Interrupted,
+    /// The caller's per-iteration callback asked to stop ([`crate::control::Flow::Finish`]).
+    Callback,
 }
 
 impl StopReason {
@@ -28,8 +34,35 @@ impl StopReason {
             StopReason::TimeLimit => "time_limit",
             StopReason::Target => "target",
             StopReason::Interrupted => "interrupted",
+            StopReason::Callback => "callback",
         }
     }
+
+    /// Why an observer's answer stops the run, if it does: [`StopReason::Interrupted`] for
+    /// [`Flow::Stop`], [`StopReason::Callback`] for [`Flow::Finish`].
+    pub fn asked(flow: Flow) -> Option<StopReason> {
+        match flow {
+            Flow::Continue => None,
+            Flow::Stop => Some(StopReason::Interrupted),
+            Flow::Finish => Some(StopReason::Callback),
+        }
+    }
+
+    /// Whether the caller stopped the run (Ctrl-C, a callback) rather than a stopping rule: the
+    /// run's state stays in its checkpoint, to be continued, and no later restart starts.
+    pub fn halted(self) -> bool {
+        matches!(self, StopReason::Interrupted | StopReason::Callback)
+    }
+}
+
+/// One iteration as an optimiser shows it to its observer, which may stop the run
+/// ([`StopReason::asked`]): its record (`step`) and, on demand, the best policy so far (made only
+/// when asked: a copy of its tables).
+pub struct Observed<'a, S> {
+    /// The iteration's record (the optimiser's history entry).
+    pub step: &'a S,
+    /// The best policy so far (of the current run, where there are restarts).
+    pub best: &'a dyn Fn() -> Result<Hhmm>,
 }
 
 /// When an optimisation stops.
@@ -76,11 +109,19 @@ mod tests {
             StopReason::TimeLimit,
             StopReason::Target,
             StopReason::Interrupted,
+            StopReason::Callback,
         ]
         .iter()
         .map(|s| s.as_str())
         .collect();
-        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted"]);
+        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted", "callback"]);
+        for (reason, name) in [(StopReason::Callback, "\"callback\""), (StopReason::Interrupted, "\"interrupted\"")] {
+            assert_eq!(serde_json::to_string(&reason).unwrap(), name);
+        }
+        assert!(StopReason::Callback.halted() && StopReason::Interrupted.halted() && !StopReason::Target.halted());
+        assert_eq!(StopReason::asked(Flow::Continue), None);
+        assert_eq!(StopReason::asked(Flow::Stop), Some(StopReason::Interrupted));
+        assert_eq!(StopReason::asked(Flow::Finish), Some(StopReason::Callback));
     }
 
     #[test]

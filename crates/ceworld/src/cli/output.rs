@@ -98,7 +98,7 @@ impl OutputArgs {
     /// How a run of the command line is watched: progress unless --quiet, `checkpointing`, and
     /// a stop on SIGINT or SIGTERM.
     pub fn run_options<'a>(&self, checkpointing: Option<&'a crate::Checkpointing>) -> crate::run::RunOptions<'a> {
-        crate::run::RunOptions { progress: !self.quiet, checkpointing, stop: &crate::cli::stop::flow }
+        crate::run::RunOptions { progress: !self.quiet, checkpointing, stop: &crate::cli::stop::flow, callback: None }
     }
 
     /// Saves a run's result: the policy `file` to --out, its `history` to --history if given,

@@ -188,7 +188,8 @@ fn train<W: KnownState>(args: &QlearnArgs, learner: &mut QLearner<W>, checkpoint
             args.checkpoint_every
         );
     }
-    let options = crate::run::RunOptions { progress: !args.quiet, checkpointing: None, stop: &super::stop::flow };
+    let options =
+        crate::run::RunOptions { progress: !args.quiet, checkpointing: None, stop: &super::stop::flow, callback: None };
     let outcome =
         crate::run::qlearn(learner, args.iterations, Some(checkpoint), Some(args.checkpoint_every), &options)?;
     if args.out != checkpoint {

@@ -9,6 +9,7 @@ use super::KnownState;
 use super::QConfig;
 use super::QTable;
 use super::epsilon;
+use crate::ce::stopping::StopReason;
 use crate::control::Flow;
 use crate::error::Error;
 use crate::rng::EngineRng;
@@ -150,7 +151,7 @@ impl<W: KnownState> QLearner<W> {
             }
             Err(e) => checkpoint_error = Some(e.to_string()),
         };
-        let mut interrupted = false;
+        let mut stop = None;
         while self.updates < until {
             let stats = self.run(CHUNK.min(until - self.updates));
             let seconds = started.elapsed().as_secs_f64();
@@ -164,8 +165,8 @@ impl<W: KnownState> QLearner<W> {
                 seconds,
                 table_bytes: self.table.bytes(),
             };
-            if observer(&progress) == Flow::Stop {
-                interrupted = true;
+            stop = StopReason::asked(observer(&progress));
+            if stop.is_some() {
                 break;
             }
             if let (Some(path), Some(every)) = (checkpoint, checkpoint_every) {
@@ -181,7 +182,8 @@ impl<W: KnownState> QLearner<W> {
         Ok(TrainOutcome {
             updates: self.updates - first,
             seconds: started.elapsed().as_secs_f64(),
-            interrupted,
+            interrupted: stop == Some(StopReason::Interrupted),
+            stop,
             checkpoints,
             checkpoint_error,
         })
@@ -235,8 +237,11 @@ pub struct TrainOutcome {
     pub updates: u64,
     /// Wall seconds of this call (checkpoints included).
     pub seconds: f64,
-    /// Whether the observer stopped it.
+    /// Whether the observer stopped it as interrupted ([`Flow::Stop`]: Ctrl-C).
     pub interrupted: bool,
+    /// Why the observer stopped it before `until`, if it did ([`StopReason::Interrupted`], or
+    /// [`StopReason::Callback`] for [`Flow::Finish`]).
+    pub stop: Option<StopReason>,
     /// Checkpoints written.
     pub checkpoints: u64,
     /// Why the last checkpoint that could not be written failed, if one failed: the run went on

@@ -21,18 +21,16 @@ pub mod value;
 use rayon::prelude::*;
 
 use crate::ce::record::IterationRecord;
-use crate::ce::stopping::StopReason;
+use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::credit::StepCredit;
 use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::evaluate::{Evaluation, closing_rewards};
-use crate::pointbased::{Budget, PointBased};
 use crate::policy::Layout;
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
-use crate::world::pomdp::PomdpWorld;
 
 pub use config::{
     ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
@@ -45,6 +43,7 @@ pub use value::{ControllerValue, Scratch, Valued};
 
 use crate::ce::resume::{Checkpointing, Saver};
 use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
+use stage::model_start;
 
 /// Searches deterministic `config.nodes`-node controllers of `world` by the cross-entropy method
 /// (module docs), `config.restarts` times; `observe` sees every iteration of every run and may
@@ -68,6 +67,18 @@ pub fn optimize_controller_with(
     config: &ControllerConfig,
     checkpointing: Option<&Checkpointing>,
     mut observe: impl FnMut(&ControllerIteration) -> Flow,
+) -> Result<ControllerOutcome> {
+    optimize_controller_observed(world, config, checkpointing, |seen| observe(seen.step))
+}
+
+/// [`optimize_controller_with`], its observer shown the best controller so far (of the current
+/// run) on demand too ([`Observed`]). An observer's [`Flow::Finish`] ends every run: the result
+/// is the best so far, stopped for [`StopReason::Callback`], and a resume continues the run it cut.
+pub fn optimize_controller_observed(
+    world: Valued<'_>,
+    config: &ControllerConfig,
+    checkpointing: Option<&Checkpointing>,
+    mut observe: impl FnMut(&Observed<'_, ControllerIteration>) -> Flow,
 ) -> Result<ControllerOutcome> {
     config.validate()?;
     let shape = world.episodes().shape();
@@ -126,7 +137,7 @@ pub fn optimize_controller_with(
             }
             run => run?,
         };
-        if run.stop == StopReason::Interrupted {
+        if run.stop.halted() {
             // The checkpoint keeps this run's state, to be continued.
             interrupted = Some(run);
             break;
@@ -180,23 +191,6 @@ pub fn optimize_controller_with(
     outcome.seconds = saver.seconds();
     outcome.checkpoint_error = saver.failed.take();
     Ok(outcome)
-}
-
-/// The model start (`model_nodes`, discounted worlds): the controller built from `world`'s
-/// model, where its exact value beats every blind policy's ("always `a`").
-fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<Controller> {
-    if config.model_nodes == 0 || world.tables().gamma >= 1.0 {
-        return None;
-    }
-    let solved = PointBased::solve(world, Budget::within(config.time_limit), config.seed);
-    let built = solved.controller(world, config.model_nodes, config.seed);
-    let values = ControllerValue::new(world, config.tolerance);
-    let mut scratch = Scratch::default();
-    let y1 = world.tables().n_observations() + 1;
-    let blind = (0..world.tables().n_actions() as u32)
-        .map(|a| values.value(&Controller::moore(vec![a], vec![0; y1]), &mut scratch))
-        .fold(f64::NEG_INFINITY, f64::max);
-    (values.value(&built, &mut scratch) > blind + config.tolerance).then_some(built)
 }
 
 /// Controllers valued at once on sampled values with `episodes` each, where a world runs
@@ -409,7 +403,7 @@ impl Search<'_> {
         resume: Option<SearchState>,
         stage: Option<(f64, Controller)>,
         saver: &mut Saver<'_, ControllerSearch>,
-        observe: &mut impl FnMut(&ControllerIteration) -> Flow,
+        observe: &mut impl FnMut(&Observed<'_, ControllerIteration>) -> Flow,
     ) -> Result<FinishedSearch> {
         let config = self.config;
         let rules = config.stop_rules();
@@ -441,15 +435,15 @@ impl Search<'_> {
                     Ok(drawn) => {
                         let cut = drawn.cut;
                         let record = self.learn(&mut state, &drawn, restart, saver.seconds());
-                        let flow = observe(&record);
+                        let flow = observe(&Observed { step: &record, best: &|| self.best_policy(&state) });
                         let (value, seconds) = (record.best_so_far, record.record.seconds);
                         state.history.push(record);
-                        if flow == Flow::Stop || self.interrupt().is_some_and(Interrupt::stopping) {
+                        if self.interrupt().is_some_and(Interrupt::stopping) {
                             Some(StopReason::Interrupted)
                         } else {
                             let over_share = share.is_some_and(|t| seconds >= t);
-                            rules
-                                .check(state.history.len(), value, state.since_progress, seconds)
+                            StopReason::asked(flow)
+                                .or_else(|| rules.check(state.history.len(), value, state.since_progress, seconds))
                                 .or((cut || over_share).then_some(StopReason::TimeLimit))
                         }
                     }

@@ -2,15 +2,24 @@
 //! policy is known.
 
 use super::laws::Laws;
-use super::{Controller, Scratch, Search, Values};
+use super::{Controller, ControllerConfig, ControllerValue, Scratch, Search, Values};
 use crate::episodes::Streams;
 use crate::error::Result;
 use crate::evaluate::Evaluation;
+use crate::pointbased::{Budget, PointBased};
+use crate::policy::Hhmm;
 use crate::rng::Purpose;
+use crate::world::pomdp::PomdpWorld;
 
 use super::checkpoint::SearchState;
 
 impl Search<'_> {
+    /// The best controller of the run so far as a policy (after its first iteration).
+    pub(super) fn best_policy(&self, state: &SearchState) -> Result<Hhmm> {
+        let (_, best, _) = state.best.as_ref().expect("a best controller after an iteration");
+        best.to_hhmm(self.y1, self.n_actions)
+    }
+
     /// In a memoryless stage, computes what its best policy must beat ([`Search::bar`]), so
     /// that the iteration that ends the stage has it.
     pub(super) fn stage_bar(&self, state: &SearchState) -> Result<()> {
@@ -81,4 +90,21 @@ impl Search<'_> {
             Laws::start(m.nodes, a, self.y1, m.mealy, m.registers, m.template, m.template_weight)
         })
     }
+}
+
+/// The model start (`model_nodes`, discounted worlds): the controller built from `world`'s
+/// model, where its exact value beats every blind policy's ("always `a`").
+pub(super) fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<Controller> {
+    if config.model_nodes == 0 || world.tables().gamma >= 1.0 {
+        return None;
+    }
+    let solved = PointBased::solve(world, Budget::within(config.time_limit), config.seed);
+    let built = solved.controller(world, config.model_nodes, config.seed);
+    let values = ControllerValue::new(world, config.tolerance);
+    let mut scratch = Scratch::default();
+    let y1 = world.tables().n_observations() + 1;
+    let blind = (0..world.tables().n_actions() as u32)
+        .map(|a| values.value(&Controller::moore(vec![a], vec![0; y1]), &mut scratch))
+        .fold(f64::NEG_INFINITY, f64::max);
+    (values.value(&built, &mut scratch) > blind + config.tolerance).then_some(built)
 }
