@@ -78,6 +78,8 @@ NOT_RUN: dict[str, str] = {
     "python3 -m pip install '.[ray]'": "an install (ray: in '.[test]', which .ci/run installs)",
     "python3 -m pip install sb3-contrib": "an install of a heavy rival, kept out of CI (docs/memory-benchmark.md)",
     "cargo install cargo-mutants && cargo mutants": "70 minutes; .ci/run runs cargo mutants on two model files",
+    "python3 -m pip install '.[docs]' && python3 -m mkdocs serve": "an install, then a server that runs until stopped",
+    "python3 -m mkdocs build --strict": "mkdocs is the docs extra's, not the test extra's: .ci/run builds the site",
 }
 
 

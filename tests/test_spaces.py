@@ -221,3 +221,13 @@ def test_every_popgym_environment_is_learnt_and_played(make: Any) -> None:
 def test_flat_stays_the_encoding_of_small_finite_spaces() -> None:
     assert isinstance(encoding(spaces.Tuple((spaces.Discrete(2), spaces.Discrete(4))), "observation"), Flat)
     assert isinstance(encoding(spaces.MultiDiscrete([8, 8]), "action"), Flat)
+
+
+def test_a_vector_environment_of_box_spaces_is_binned_and_stepped_as_a_batch() -> None:
+    vector = gym.vector.SyncVectorEnv([Line, Line, Line])
+    world = cehmm.PythonWorld(vector)
+    assert world.batch == 3 and world.description["spaces"]["observation"]["encoding"] == "bins"
+    result = cehmm.optimize_controller(
+        vector, nodes=2, samples=20, episodes=3, select_episodes=20, eval_episodes=50, max_iterations=3, progress=False
+    )
+    assert cehmm.gym.play(Line(), result.policy.agent(), episodes=5).mean() > 10

@@ -7,11 +7,17 @@ Rust crate ``ceworld`` (compiled here as the private module ``cehmm._core``).
 
 Example:
     >>> import cehmm
-    >>> world = cehmm.TargetTracking(case=3)
-    >>> result = cehmm.optimize(world, levels=[16, 16], samples=1000, patience=100)  # doctest: +SKIP
-    >>> result.evaluation.mean  # doctest: +SKIP
-    65.2
-    >>> result.policy.save("policy.json")  # doctest: +SKIP
+    >>> world = cehmm.TargetTracking(case=1)
+    >>> result = cehmm.optimize(world, levels=[4], samples=200, max_iterations=5, progress=False)
+    >>> result.evaluation
+    Evaluation(mean=1.596 ± 0.061, episodes=10000, ...)
+    >>> result.policy.save("policy.json")
+    >>> cehmm.Policy.load("policy.json").levels
+    [4]
+    >>> cehmm.TargetTracking(case=4)
+    Traceback (most recent call last):
+    ...
+    cehmm.InvalidArgumentError: invalid case: 4 (expected 1, 2 or 3)
 
 Errors: an argument of the wrong type raises ``TypeError`` (numpy integers and floats are taken
 where Python ints and floats are); every other error of the engine is a :class:`CehmmError` (a

@@ -81,25 +81,81 @@ PAPER_REFERENCE: float
 OPTIMISERS: dict[str, dict[str, Any]]
 
 class CehmmError(ValueError):
-    """Base class of the errors raised by cehmm."""
+    """Base class of the errors raised by cehmm (a ``ValueError``).
+
+    Example:
+        >>> try:
+        ...     cehmm.TargetTracking(case=4)
+        ... except cehmm.CehmmError as error:
+        ...     print(type(error).__name__, isinstance(error, ValueError))
+        InvalidArgumentError True
+    """
 
 class InvalidArgumentError(CehmmError):
-    """An argument outside its domain (``ceworld::Error::InvalidArgument``)."""
+    """An argument outside its domain (``ceworld::Error::InvalidArgument``).
+
+    Example:
+        >>> cehmm.TargetTracking(case=4)
+        Traceback (most recent call last):
+        ...
+        cehmm.InvalidArgumentError: invalid case: 4 (expected 1, 2 or 3)
+    """
 
 class PolicyFormatError(CehmmError):
-    """An invalid policy file or table (``ceworld::Error::PolicyFormat``)."""
+    """An invalid policy file or table (``ceworld::Error::PolicyFormat``).
+
+    Example:
+        >>> cehmm.Policy.from_json("{}")
+        Traceback (most recent call last):
+        ...
+        cehmm.PolicyFormatError: invalid policy: format is missing (expected "cehmm-policy")
+    """
 
 class InternalError(CehmmError):
-    """A bug: a panic inside the engine, caught (``ceworld::Error::Internal``)."""
+    """A bug: a panic inside the engine, caught (``ceworld::Error::Internal``; please report it).
+
+    Example:
+        >>> issubclass(cehmm.InternalError, cehmm.CehmmError)
+        True
+    """
 
 class ModelFormatError(CehmmError):
-    """An invalid ``.pomdp`` file (``ceworld::Error::ModelFormat``)."""
+    """An invalid ``.pomdp`` file (``ceworld::Error::ModelFormat``): the message names its line
+    and column.
+
+    Example:
+        >>> with open("bad.POMDP", "w") as f:
+        ...     _ = f.write("discount: 2")
+        >>> cehmm.PomdpWorld.from_file("bad.POMDP")
+        Traceback (most recent call last):
+        ...
+        cehmm.ModelFormatError: invalid model file bad.POMDP:1:11: discount 2 is out of range (expected ...)
+    """
 
 class PolicyMismatchError(CehmmError):
-    """A policy whose observation or decision count differs from the world's (``ceworld::Error::Mismatch``)."""
+    """A policy whose observation or decision count differs from the world's (``ceworld::Error::Mismatch``).
+
+    Example:
+        >>> tiger = cehmm.PomdpWorld.from_file("data/pomdp/tiger.95.POMDP")
+        >>> cehmm.Policy.uniform(cehmm.TargetTracking(case=1), [2]).evaluate(tiger, episodes=10)
+        Traceback (most recent call last):
+        ...
+        cehmm.PolicyMismatchError: policy does not match the world: the policy has 16 observations ...
+    """
 
 class WorldError(CehmmError):
-    """A world written in Python that returned something outside its shape (``ceworld::Error::World``)."""
+    """A world written in Python that returned something outside its shape (``ceworld::Error::World``).
+
+    Example:
+        >>> class Broken:
+        ...     n_observations, n_decisions, horizon = 2, 2, 3
+        ...     def reset(self, seed): return 5  # observations are 0 and 1
+        ...     def step(self, decision): return 0, 0.0, False
+        >>> cehmm.Policy.uniform(Broken(), [2]).evaluate(Broken(), episodes=10)
+        Traceback (most recent call last):
+        ...
+        cehmm.WorldError: world ...Broken, episode 0 (evaluate), reset: observation 5 (expected 0..2)
+    """
 
 # ``ceworld::Error::WrongType`` is raised as ``TypeError``; ``ceworld::Error::Io`` as the built-in
 # ``OSError`` subclass of its errno, with ``filename``.

@@ -24,7 +24,17 @@ import numpy.typing as npt
 
 @runtime_checkable
 class Pending(Protocol):
-    """An answer on its way."""
+    """An answer on its way.
+
+    Example:
+        >>> class Done:
+        ...     def __init__(self, values): self.values = values
+        ...     def wait(self, timeout): return True
+        ...     def result(self): return self.values
+        ...     def cancel(self): pass
+        >>> isinstance(Done(np.zeros(3)), Pending)
+        True
+    """
 
     def wait(self, timeout: float) -> bool:
         """Whether the answer is ready, after at most ``timeout`` seconds."""
@@ -41,7 +51,14 @@ class Pending(Protocol):
 
 @runtime_checkable
 class Sampler(Protocol):
-    """The episodes of one world, sampled elsewhere."""
+    """The episodes of one world, sampled elsewhere (:class:`Backend` has one that samples
+    them here).
+
+    Example:
+        >>> from cehmm.ray_backend import RaySampler
+        >>> issubclass(RaySampler, Sampler)
+        True
+    """
 
     def rewards(self, policy: str, seed: int, purpose: str, iteration: int, first: int, n: int) -> Pending:
         """Rewards of episodes ``first..first + n`` of ``(seed, purpose, iteration)`` under
@@ -70,7 +87,47 @@ class Sampler(Protocol):
 
 @runtime_checkable
 class Backend(Protocol):
-    """Binds a world to the :class:`Sampler` of its episodes."""
+    """Binds a world to the :class:`Sampler` of its episodes.
+
+    Example:
+        A backend that samples in this process, with the engine's functions that the workers of
+        :mod:`cehmm.ray_backend` run, gives the local result, bit for bit:
+
+        >>> from cehmm import _core
+        >>> from cehmm.world import core_world
+        >>> class Done:
+        ...     def __init__(self, values): self.values = values
+        ...     def wait(self, timeout): return True
+        ...     def result(self): return self.values
+        ...     def cancel(self): pass
+        >>> class Here:
+        ...     def bind(self, world, options):
+        ...         return HereSampler(core_world(world, **options))
+        >>> class HereSampler:
+        ...     def __init__(self, world): self.world = world
+        ...     def rewards(self, policy, seed, purpose, iteration, first, n):
+        ...         table = _core.Policy.from_json(policy)
+        ...         return Done(table.shard_rewards(self.world, seed, purpose, iteration, first, n))
+        ...     def counts(self, policy, seed, iteration, episodes):
+        ...         table = _core.Policy.from_json(policy)
+        ...         return Done(table.rerun_counts(self.world, seed, iteration, episodes))
+        ...     def controller_values(self, controllers, seed, purpose, iteration, episodes):
+        ...         args = (self.world, controllers, seed, purpose, iteration, episodes)
+        ...         return Done(_core.controller_values(*args))
+        ...     def controller_credit(self, controllers, seed, purpose, iteration, episodes):
+        ...         args = (self.world, controllers, seed, purpose, iteration, episodes)
+        ...         return Done(_core.controller_credit(*args))
+        ...     def exact_values(self, controllers, tolerance):
+        ...         return Done(_core.controller_exact_values(self.world, controllers, tolerance))
+        >>> isinstance(Here(), Backend), isinstance(HereSampler(None), Sampler)
+        (True, True)
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> here = cehmm.optimize(world, levels=[4], samples=200, max_iterations=3, progress=False,
+        ...                       backend=Here())
+        >>> local = cehmm.optimize(world, levels=[4], samples=200, max_iterations=3, progress=False)
+        >>> here.policy.to_json() == local.policy.to_json()
+        True
+    """
 
     def bind(self, world: Any, options: dict[str, Any]) -> Sampler:
         """The sampler of ``world`` (an engine world or a world written in Python; ``options``

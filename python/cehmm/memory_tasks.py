@@ -14,8 +14,9 @@ Each has ``n_observations``, ``n_decisions``, ``horizon``, ``optimum`` (the best
 
 Example:
     >>> import cehmm
-    >>> world = TMaze(corridor=4)
-    >>> result = cehmm.optimize_controller(world, nodes=6, progress=False)  # doctest: +SKIP
+    >>> found = cehmm.optimize_controller(TMaze(corridor=4), nodes=4, target=1.0, progress=False)
+    >>> found.value, found.stop_reason
+    (1.0, 'target')
 """
 
 from __future__ import annotations
@@ -61,6 +62,17 @@ class RepeatFirst(_Cards):
     Each of the ``cards − 1`` steps pays ``+1/(cards − 1)`` when the decision is the first card's
     suit, ``−1/(cards − 1)`` otherwise: the optimum is 1 (a controller that holds the first
     suit), the best memoryless policy (repeat the current card) about −0.5.
+
+    Example:
+        >>> game = RepeatFirst()
+        >>> first = game.reset(n=3, seed=0)  # the suits of three episodes' first cards
+        >>> first
+        array([3, 0, 2])
+        >>> observations, rewards, done = game.step(first)  # named: +1/51 each
+        >>> (rewards * 51).tolist(), done.tolist()
+        ([1.0, 1.0, 1.0], [False, False, False])
+        >>> game.horizon, round(game.memoryless, 3)
+        (51, -0.499)
     """
 
     optimum = 1.0
@@ -87,6 +99,16 @@ class RepeatPrevious(_Cards):
 
     The steps from the ``k``-th on pay ``±1/(cards − k)``: the optimum is 1, and a memoryless
     policy cannot beat chance (a mean of −0.5, four suits).
+
+    Example:
+        >>> game = RepeatPrevious(k=2)  # name the card dealt one step before
+        >>> previous = game.reset(n=3, seed=0)
+        >>> observations, rewards, done = game.step(previous)  # the first step is not scored
+        >>> rewards.tolist()
+        [0.0, 0.0, 0.0]
+        >>> observations, rewards, done = game.step(previous)
+        >>> (rewards * 50).tolist()
+        [1.0, 1.0, 1.0]
     """
 
     optimum = 1.0
@@ -118,6 +140,18 @@ class TMaze:
     the junction cost 0.01 and stay. An episode that has not turned after ``horizon`` steps
     (``corridor + 10``) ends with what it has. The optimum is 1 (``corridor`` steps forward, then
     the sign's way); without memory the junction is a coin toss: at best 0.
+
+    Example:
+        >>> maze = TMaze(corridor=2)
+        >>> maze.reset(n=4, seed=0)  # the signs
+        array([1, 1, 1, 0])
+        >>> maze.step(np.zeros(4, dtype=np.int64))[0]  # forward: the corridor
+        array([2, 2, 2, 2])
+        >>> maze.step(np.zeros(4, dtype=np.int64))[0]  # forward: the junction
+        array([3, 3, 3, 3])
+        >>> observations, rewards, done = maze.step(np.array([2, 2, 2, 1]))  # the signs' ways
+        >>> rewards.tolist(), done.tolist()
+        ([1.0, 1.0, 1.0, 1.0], [True, True, True, True])
     """
 
     batched = True

@@ -133,6 +133,19 @@ class RayBackend:
         InvalidArgumentError: an argument out of its domain, an ``address`` of none of the
             shapes above; on first use, a cluster that does not answer within
             :data:`CONNECT_TIMEOUT` seconds, or ``threads`` more than any of its nodes has.
+
+    Example:
+        Nothing is started until a run uses it (``pip install 'cehmm[ray]'``):
+
+        >>> backend = RayBackend(workers=4, threads=1)
+        >>> backend.workers, backend.retries
+        (4, 3)
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> result = cehmm.optimize(world, levels=[4], backend=backend)  # doctest: +SKIP
+        >>> RayBackend(address="ray://")
+        Traceback (most recent call last):
+        ...
+        cehmm.InvalidArgumentError: invalid address: 'ray://' (expected 'auto', 'local', ...)
     """
 
     def __init__(

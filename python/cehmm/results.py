@@ -26,6 +26,14 @@ class Evaluation:
         min: smallest reward.
         max: largest reward.
         quantiles: ``{q: value}`` for q = 0.05, 0.25, 0.5, 0.75, 0.95 (nearest rank).
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> evaluation = cehmm.Policy.uniform(world, [4]).evaluate(world, episodes=1000, seed=0)
+        >>> evaluation
+        Evaluation(mean=1.46 ± 0.17, episodes=1000, std=5.50, min=0.00, max=51.00, median=0.00)
+        >>> evaluation.quantiles[0.95]
+        13.0
     """
 
     episodes: int
@@ -49,6 +57,14 @@ class ExactValue:
         value: the expected (discounted) reward.
         steps: steps of the recursion (the horizon, or the steps taken to reach the tolerance).
         tail_bound: a bound on what the steps not taken could add (0 at a finite horizon).
+
+    Example:
+        >>> tiger = cehmm.PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=10)
+        >>> value = cehmm.Policy.uniform(tiger, [2]).evaluate_exact(infinite=True)
+        >>> value
+        ExactValue(value=-606.6666663705813, steps=418, tail_bound=9.8e-07)
+        >>> round(float(value), 3)
+        -606.667
     """
 
     value: float
@@ -73,6 +89,14 @@ class Rollout:
         d: decision ``d_t``, shape ``(T,)``, int64.
         memory: memory states ``m_1[t] .. m_Λ[t]``, shape ``(T, Λ)``, int64.
         reward: the episode's reward ``V``.
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> episode = cehmm.Policy.uniform(world, [4]).rollout(world, seed=0)
+        >>> episode
+        Rollout(steps=100, levels=1, reward=0.0)
+        >>> episode.x_labels[-2:], episode.column("target_i")[:3]
+        (['target_i', 'target_j'], array([10, 10, 10]))
     """
 
     x: npt.NDArray[np.int64]
@@ -86,7 +110,11 @@ class Rollout:
         return len(self.y)
 
     def column(self, label: str) -> npt.NDArray[np.int64]:
-        """The column of ``x`` named ``label`` (e.g. ``"target_i"``)."""
+        """The column of ``x`` named ``label`` (e.g. ``"target_i"``).
+
+        Raises:
+            InvalidArgumentError: no column has that name.
+        """
         if label not in self.x_labels:
             raise InvalidArgumentError(f"invalid label: {label!r} (expected one of {self.x_labels})")
         return self.x[:, self.x_labels.index(label)]
@@ -118,6 +146,17 @@ class WindowEvaluation:
         continuing: consecutive windows of long continuing runs after a burn-in (correlated:
             its ``std_error`` is optimistic).
         reference: the reward that counts as 100 % (the paper: 69).
+
+    Example:
+        >>> small = cehmm.TargetTracking(case=3, width=5, height=5, start_b=[0, 4], start_c=[4, 4],
+        ...                              target_rows=[0, 2], target_cell=[2, 2])
+        >>> policy = cehmm.Policy.uniform(small, [2])
+        >>> windows = cehmm.evaluate_windows(policy, small, reference=100.0, episodes=100, chains=2,
+        ...                                  burn_in=10, windows_per_chain=5)
+        >>> windows
+        WindowEvaluation(from_start: worst/mean/best 54/85/100 % over 100 windows; continuing: ...)
+        >>> windows.from_start.episodes, windows.continuing.episodes
+        (100, 10)
     """
 
     from_start: Evaluation

@@ -21,6 +21,15 @@ class World:
         InvalidArgumentError: an unknown name or parameter (the message lists the valid ones),
             or a value out of its range.
         TypeError: a parameter of the wrong type (a string for a number, ...).
+
+    Example:
+        >>> world = World("target-tracking", case=1, horizon=50)
+        >>> world
+        World('target-tracking', case=1, horizon=50)
+        >>> world.n_observations, world.n_decisions, world.horizon
+        (16, 16, 50)
+        >>> World.from_dict(world.to_dict())  # a class of its own comes back as it
+        TargetTracking(case=1, horizon=50)
     """
 
     __slots__ = ("_core",)
@@ -39,7 +48,12 @@ class World:
 
     @staticmethod
     def names() -> list[str]:
-        """The names of the registered worlds."""
+        """The names of the registered worlds.
+
+        Example:
+            >>> World.names()
+            ['target-tracking', 'pomdp']
+        """
         return _core.World.names()
 
     @classmethod
@@ -96,6 +110,10 @@ class World:
 
         Raises:
             InvalidArgumentError: the world knows no exact optimum.
+
+        Example:
+            >>> World("target-tracking", case=1).optimum()
+            86.0
         """
         return self._core.exact_optimum()
 
