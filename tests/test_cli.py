@@ -43,10 +43,40 @@ def test_the_console_script_runs_the_engines_commands(tmp_path: Path) -> None:
     bad = cehmm("optimize", "--case", "9", "--out", "x.json", cwd=tmp_path)
     assert bad.returncode == 2 and bad.stderr.startswith("cehmm: error: invalid"), bad.stderr
     assert cehmm("optimize", "--bogus", cwd=tmp_path).returncode == 2
+
+
+def test_the_help_is_one_list_of_every_command_each_on_a_line(tmp_path: Path) -> None:
     helped = cehmm("--help", cwd=tmp_path)
-    assert helped.returncode == 0
-    for command in ["optimize", "controller", "evaluate", "show", "optimum", "qlearn", "qlearn-eval", "reproduce"]:
-        assert command in helped.stdout, command
+    assert helped.returncode == 0, helped.stderr
+    # One usage (the second block, where the package's commands hid, is gone).
+    assert helped.stdout.lower().count("usage:") == 1, helped.stdout
+    listed = helped.stdout.split("Commands:\n")[1].split("\n\n")[0].splitlines()
+    described = dict(line.split(None, 1) for line in listed)
+    engine = ["optimize", "controller", "evaluate", "show", "optimum", "qlearn", "qlearn-eval", "run"]
+    assert list(described) == [*engine, *cli.PYTHON_COMMANDS, "help"], listed
+    # The package's commands as the package describes them; every description one short line.
+    for name, what in cli.PYTHON_COMMANDS.items():
+        assert described[name] == what, name
+    assert all(len(line) < 120 for line in listed), listed
+    # Without a command: the same list, on stderr, exit 2; `help COMMAND` for the package's too.
+    bare = cehmm(cwd=tmp_path)
+    assert bare.returncode == 2 and "plot " in bare.stderr and "qlearn-eval " in bare.stderr, bare.stderr
+    helped = cehmm("help", "plot", cwd=tmp_path)
+    assert helped.returncode == 0 and "usage: cehmm plot" in helped.stdout, helped.stderr
+
+
+def test_sizes_given_apart_and_episodes_of_an_exact_value_are_refused_by_name(tmp_path: Path) -> None:
+    spaced = cehmm("optimize", "--levels", "16", "16", cwd=tmp_path)
+    assert spaced.returncode == 2, spaced.stderr
+    assert spaced.stderr.startswith("cehmm: error: invalid --levels: 16 16 (expected sizes separated by commas")
+    assert "--levels 16,16" in spaced.stderr
+    searched = cehmm("controller", "--pomdp", str(TIGER), "--nodes", "2", "--quiet", "--out", "t.json", cwd=tmp_path)
+    assert searched.returncode == 0, searched.stderr
+    exact = cehmm("evaluate", "t.json", "--exact", cwd=tmp_path)
+    assert exact.returncode == 0 and "exact infinite-horizon value" in exact.stdout, exact.stderr
+    assert exact.stderr == ""  # no stray "(0.00s)"
+    both = cehmm("evaluate", "t.json", "--exact", "--episodes", "10", cwd=tmp_path)
+    assert both.returncode == 2 and "invalid --episodes: 10" in both.stderr and "--exact" in both.stderr, both.stderr
 
 
 def test_the_command_line_leaves_the_interpreters_signal_handlers_as_they_were(capfd, tmp_path: Path) -> None:

@@ -165,3 +165,111 @@ def test_evaluations_print_to_the_precision_of_their_standard_error(tracking) ->
     d = next(d for d in range(13) if 10.0 ** (1 - d) <= e.std_error)
     assert repr(e).startswith(f"Evaluation(mean={e.mean:.{d}f} ± {e.std_error:.{d}f}, episodes={e.episodes}, ")
     assert f"max={e.max:.{d}f}" in repr(e)
+
+
+# -- what the figures say: their artists, not their pixels ---------------------------------------
+
+
+def test_best_so_far_has_a_colour_and_a_style_of_its_own_and_a_legend_entry(tracking, controller) -> None:
+    from matplotlib.colors import to_rgba
+
+    _, result = tracking
+    ax = plots.learning_curve(result, controller, labels=["ce", "search"]).axes[0]
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    for run in ("ce", "search"):
+        mean, best = lines[f"{run}: mean"], lines[f"{run}: best so far"]
+        assert to_rgba(best.get_color()) != to_rgba(mean.get_color())
+        assert best.get_linestyle() in ("-", "--") and best.get_linestyle() != mean.get_linestyle()
+    # No two runs share a colour, and every line is in the legend.
+    colours = [
+        to_rgba(lines[f"{run}: {what}"].get_color()) for run in ("ce", "search") for what in ("mean", "best so far")
+    ]
+    assert len(set(colours)) == 4
+    assert {t.get_text() for t in ax.get_legend().get_texts()} == set(lines)
+
+
+def test_every_panel_of_the_decision_law_names_its_axes(tracking, controller, tiger) -> None:
+    world, result = tracking
+    one = cehmm.Policy.uniform(world, [3])
+    for figure in (
+        plots.decision_law(result.policy, world),
+        plots.decision_law(one),
+        plots.decision_law(controller.policy),
+    ):
+        left, right = figure.axes[:2]
+        assert (left.get_xlabel(), left.get_ylabel()) == ("decision d", "m₁")
+        assert right.get_xlabel() and right.get_ylabel() == "observation y"
+
+
+def test_an_episode_is_titled_by_its_world_and_its_time_labels_do_not_overlap(tracking) -> None:
+    world, result = tracking
+    episode = result.policy.rollout(world, seed=3)
+    assert plots.rollout(episode).axes[0].get_title().startswith("episode of target tracking (reward ")
+    figure = episode.plot(world=world)
+    ax = figure.axes[0]
+    assert ax.get_title().startswith(f"episode of target tracking, case 3 (reward {episode.reward:g}): steps 1–100")
+    figure.set_dpi(130)  # another dpi than the one the labels were thinned at, laid out again
+    figure.draw_without_rendering()
+    shown = [t for t in ax.texts if t.get_visible() and t.get_text()]
+    # 100 steps of three mobiles: some labels left out, and those shown clear of one another.
+    assert 10 <= len(shown) < len(ax.texts) and len(shown) <= 150
+    boxes = [t.get_window_extent().padded(-1.0) for t in shown]
+    overlaps = [
+        (a.get_text(), b.get_text())
+        for i, a in enumerate(shown)
+        for j, b in enumerate(shown[:i])
+        if boxes[i].overlaps(boxes[j])
+    ]
+    assert not overlaps, overlaps
+    # A short stretch keeps every label (the paper's figure).
+    stretch = plots.trajectory(result.policy, world, length=8).axes[0]
+    assert all(t.get_visible() for t in stretch.texts)
+    assert stretch.get_title().startswith("episode ") and " of target tracking, case 3 (reward " in stretch.get_title()
+
+
+def test_a_policy_graph_labels_every_arrow_and_loops_have_arrowheads(controller, tiger) -> None:
+    from matplotlib.patches import ArrowStyle, FancyArrowPatch
+
+    def drawn(figure):
+        ax = figure.axes[0]
+        arrows = {p.get_gid(): p for p in ax.patches if isinstance(p, FancyArrowPatch) and p.get_gid()}
+        labels = {t.get_gid(): t.get_text() for t in ax.texts if t.get_gid()}
+        return ax, arrows, labels
+
+    # One node that stays itself on every observation: a loop, with its arrowhead and its label.
+    ax, arrows, labels = drawn(plots.policy_graph(cehmm.Policy.uniform(tiger, [1]), tiger))
+    assert isinstance(arrows["edge 0->0"].get_arrowstyle(), ArrowStyle.CurveFilledB)
+    assert labels["label 0->0"].split("\n") == ["tiger-left", "tiger-right"]
+    assert ax.get_title() == "policy graph of tiger.95.POMDP: 1 node (laws ≤ 0.001 left out)"
+    # A found controller: an arrow and a label per pair of nodes, the observations that take it.
+    graph = controller.policy.graph(tiger, form="json")
+    ax, arrows, labels = drawn(plots.policy_graph(controller.policy, title="t.json"))
+    for a, b, label in plots.graph.edges(graph):
+        assert f"edge {a}->{b}" in arrows and labels[f"label {a}->{b}"] == label != ""
+    assert ax.get_title().startswith("t.json\npolicy graph of tiger.95.POMDP: ")
+    # Arrows too many for names: the observations' indices, the key in the title.
+    ax, arrows, labels = drawn(plots.policy_graph(cehmm.Policy.uniform(tiger, [4]), tiger, prune=0.0))
+    assert len(arrows) == len(labels) == 16
+    assert all(set(label.split(",")) == {"0 (0.25)", "1 (0.25)"} for label in labels.values()), labels
+    assert ax.get_title().endswith("observations by index, 0 tiger-left, 1 tiger-right")
+
+
+def test_cehmm_plot_titles_a_policy_by_its_file_and_its_world(controller, tracking, tmp_path: Path) -> None:
+    import argparse
+
+    from cehmm import cli
+
+    _, result = tracking
+    tiger, case3 = str(tmp_path / "tiger.json"), str(tmp_path / "case3.json")
+    controller.policy.save(tiger)
+    result.policy.save(case3)
+    options = dict(x="iteration", prune=0.001, episodes=5)
+    of_tiger = f"{tiger}: a policy of tiger.95.POMDP (levels {controller.policy.levels})"
+    for path, what, title in [
+        (tiger, None, of_tiger + "\npolicy graph: "),  # the world named once
+        (tiger, "law", of_tiger),
+        (case3, None, f"{case3}: a policy of target tracking, case 3 (levels [4, 3])"),
+    ]:
+        figure = cli._figure_of(argparse.Namespace(files=[path], what=what, **options))
+        shown = figure.axes[0].get_title() if path == tiger and what is None else figure.get_suptitle()
+        assert shown.startswith(title) and "case ?" not in shown, shown

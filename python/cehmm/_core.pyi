@@ -45,6 +45,7 @@ __all__ = [
     "GRAPH_PRUNE",
     "BACKEND_METHODS",
     "PENDING_METHODS",
+    "PACKAGE_COMMANDS",
     "CE_DEFAULTS",
     "CONTROLLER_DEFAULTS",
     "INIT_CHOICES",
@@ -379,6 +380,9 @@ def controller_exact_values(
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
 def cli(args: Sequence[str | os.PathLike[str]]) -> int: ...
+
+PACKAGE_COMMANDS: list[tuple[str, str]]
+
 def read_file(path: str | os.PathLike[str], max_bytes: int, what: str) -> bytes: ...
 def check_distinct(
     inputs: Sequence[tuple[str, str | os.PathLike[str]]], outputs: Sequence[tuple[str, str | os.PathLike[str]]]

@@ -1,9 +1,10 @@
 """The ``cehmm`` console script: ``cehmm COMMAND [ARGS...]``.
 
-The engine's command line (``optimize``, ``evaluate``, ``show``, ``controller``, ``optimum``,
-``qlearn``, ``qlearn-eval``) is the one the ``ceworld`` binary runs, compiled into the package
-(no second copy of its options); ``reproduce`` and ``benchmarks`` are the package's own
-(:mod:`cehmm.reproduce`, :mod:`cehmm.benchmarks`).
+The engine's command line (``optimize``, ``controller``, ``evaluate``, ``show``, ``optimum``,
+``qlearn``, ``qlearn-eval``, ``run``) is the one the ``ceworld`` binary runs, compiled into the
+package (no second copy of its options); ``plot``, ``reproduce`` and ``benchmarks`` are the
+package's own (:mod:`cehmm.plots`, :mod:`cehmm.reproduce`, :mod:`cehmm.benchmarks`). ``cehmm
+--help`` is the engine's, which lists the package's commands with its own.
 """
 
 from __future__ import annotations
@@ -14,29 +15,17 @@ from typing import Any
 
 from . import _core
 
-#: The package's own commands (written in Python), with what they do.
-PYTHON_COMMANDS = {
-    "plot": "draw history files as learning curves, or a policy file as its graph or decision law: "
-    "cehmm plot FILE... --out PNG",
-    "reproduce": "reproduce the paper's results table (model §5) and write the report",
-    "benchmarks": "learn controllers for every .pomdp file of data/pomdp and write docs/benchmarks.md",
-}
-
-USAGE = (
-    "usage: cehmm COMMAND [ARGS...]   (cehmm COMMAND --help for its options)\n\n"
-    "commands of the engine: optimize, evaluate, show, controller, optimum, qlearn, qlearn-eval\n"
-    "  (cehmm --help lists them with what they do)\n"
-    "commands of the package:\n" + "".join(f"  {name:<11} {what}\n" for name, what in PYTHON_COMMANDS.items())
-)
+#: The package's own commands (written in Python), with what they do, as the engine lists them
+#: in ``cehmm --help`` (crates/ceworld/src/cli/help.rs, their one home).
+PYTHON_COMMANDS: dict[str, str] = dict(_core.PACKAGE_COMMANDS)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs a command; returns the exit status."""
     args = list(sys.argv[1:] if argv is None else argv)
-    if not args:
-        print(USAGE, end="", file=sys.stderr)
-        return 2
-    command, rest = args[0], args[1:]
+    if len(args) >= 2 and args[0] == "help" and args[1] in PYTHON_COMMANDS:
+        args = [args[1], "--help"]
+    command, rest = (args[0], args[1:]) if args else ("", [])
     if command == "plot":
         return plot(rest)
     if command == "reproduce":
@@ -48,12 +37,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         return benchmarks.main(rest)
     # The engine writes to the process's own stdout and stderr: what Python buffered goes first.
+    # Without a command, it prints its help (every command, the package's too) and exits 2.
     sys.stdout.flush()
     sys.stderr.flush()
-    status = _core.cli(args)
-    if command in ("-h", "--help", "help"):
-        print("\n" + USAGE, end="")
-    return status
+    return _core.cli(args)
 
 
 #: What ``cehmm plot`` draws of a policy file (``--what``), by the function that draws it.
@@ -67,7 +54,7 @@ def plot(args: Sequence[str]) -> int:
 
     parser = argparse.ArgumentParser(
         prog="cehmm plot",
-        description=PYTHON_COMMANDS["plot"],
+        description=PYTHON_COMMANDS["plot"] + ": cehmm plot FILE... --out PNG",
         epilog="A .jsonl or .csv file is a history (several share one axes); a .json file a policy (one). "
         "A policy's default figure is its policy graph on a tabular world, else its decision law.",
     )
@@ -110,6 +97,7 @@ def _figure_of(options: Any) -> Any:
 
     from . import plots
     from .policy import Policy
+    from .world import world_title
 
     policies = [f for f in options.files if Path(f).suffix == ".json"]
     if not policies:
@@ -122,7 +110,7 @@ def _figure_of(options: Any) -> Any:
         )
     policy = Policy.load(policies[0])
     what = options.what or ("graph" if policy.world.get("name") == "pomdp" else "law")
-    title = f"{policies[0]}: {policy!r}"
+    title = f"{policies[0]}: a policy of {world_title(policy.world) or 'its world'} (levels {policy.levels})"
     if what == "graph":
         return plots.policy_graph(policy, prune=options.prune, title=title)
     if what == "memory":

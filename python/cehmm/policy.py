@@ -15,7 +15,7 @@ from .outside import PythonWorld, _is_gym_env
 from .ray_backend import sampled_world
 from .results import Evaluation, ExactValue, Rollout, evaluation
 from .spaces import EnvAgent, recorded
-from .world import World, core_world
+from .world import World, core_world, world_title
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -312,7 +312,7 @@ class Policy:
 
     def __repr__(self) -> str:
         world = self.world
-        where = f", world={world.get('name', '?')} case {world.get('case', '?')}" if world else ""
+        where = f", world={world_title(world)}" if world else ""
         mean = self.provenance.get("mean_reward")
         score = f", mean_reward={mean:.2f}" if isinstance(mean, (int, float)) else ""
         return (

@@ -4,6 +4,7 @@ its name (model §1), and the lookup of a policy file's ``"world"`` object."""
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import PurePath
 from typing import Any, ClassVar
 
 from . import _core
@@ -168,3 +169,28 @@ def core_world(world: Any, **options: Any) -> Any:
     if isinstance(world, PythonWorld) and not options:
         return world._core
     return PythonWorld(world.world if isinstance(world, PythonWorld) else world, **options)._core
+
+
+def world_title(world: Any) -> str:
+    """A world as a figure's title names it: a ``.pomdp`` file by its file's name, target
+    tracking with its case, a Python world by its class, any other by its registered name;
+    ``world``: a world object or a policy file's ``"world"`` dict ("" for ``None``); a
+    Gymnasium environment by its id."""
+    if world is None:
+        return ""
+    if isinstance(world, Mapping):
+        described = dict(world)
+    elif hasattr(world, "to_dict"):
+        described = world.to_dict()
+    else:  # a Python world: its class (a wrapped one's, the object it wraps)
+        return type(getattr(world, "world", world) if type(world).__name__ == "PythonWorld" else world).__name__
+    name = str(described.get("name", "?"))
+    if name == "pomdp" and described.get("file"):
+        return PurePath(str(described["file"])).name
+    if name == "target-tracking":
+        return "target tracking" + (f", case {described['case']}" if "case" in described else "")
+    if name == "outside" and described.get("id"):
+        return str(described["id"])
+    if name == "outside" and described.get("class"):
+        return str(described["class"]).rsplit(".", 1)[-1]
+    return name

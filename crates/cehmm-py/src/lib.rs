@@ -78,6 +78,7 @@ mod _core {
         m.add("ENGINE_VERSION", ceworld::VERSION)?;
         m.add("GRAPH_PRUNE", ceworld::policy::graph::PRUNE)?;
         m.add("BACKEND_METHODS", super::remote::METHODS)?;
+        m.add("PACKAGE_COMMANDS", ceworld::cli::PACKAGE_COMMANDS.to_vec())?;
         m.add("PENDING_METHODS", super::remote::PENDING)?;
         super::run::add(m)?;
         super::defaults::add(m)

@@ -395,6 +395,25 @@ fn defaults_are_shown_as_they_are_written() {
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && help.contains("[default: 16,16]"), "{help}");
     fails_with(&["optimize", "--levels", "16 16"], &["--levels", "expected sizes separated by commas"]);
+    // Sizes given apart were "unexpected argument '16'": now what is expected.
+    fails_with(&["optimize", "--levels", "16", "16"], &["invalid --levels: 16 16", "commas", "--levels 16,16"]);
+    fails_with(&["optimize", "--levels=8", "4", "2", "-q"], &["invalid --levels: 8 4 2", "--levels 8,4,2"]);
+}
+
+#[test]
+fn the_help_lists_every_command_on_a_line_and_says_what_the_controller_search_takes() {
+    let help = String::from_utf8_lossy(&ceworld(&["--help"]).stdout).into_owned();
+    let listed: Vec<&str> =
+        help.lines().skip_while(|l| *l != "Commands:").skip(1).take_while(|l| !l.is_empty()).collect();
+    assert_eq!(listed.len(), 9, "{help}");
+    assert!(listed.iter().all(|l| l.chars().count() < 120), "one short line a command: {help}");
+    // Without a command: the same list, on stderr, exit 2.
+    let bare = ceworld(&[]);
+    assert_eq!(bare.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bare.stderr).contains(listed[1]), "{bare:?}");
+    let controller = String::from_utf8_lossy(&ceworld(&["controller", "--help"]).stdout).into_owned();
+    assert!(!controller.contains("of a tabular world"), "{controller}");
+    assert!(controller.contains("controller of any world") && controller.contains("--value sampled"), "{controller}");
 }
 
 #[test]
@@ -534,6 +553,11 @@ fn exact_values_refuse_a_tolerance_that_bounds_every_value() {
     );
     let fine = ceworld(&["evaluate", p, "--exact", "--tolerance", "1e-3"]);
     assert!(String::from_utf8_lossy(&fine.stdout).contains("infinite-horizon value"));
+    // Nothing else: no stray "(0.00s)" on stderr.
+    assert!(fine.stderr.is_empty(), "{}", String::from_utf8_lossy(&fine.stderr));
+    // Sampling options do not apply to an exact value: refused, not ignored.
+    fails_with(&["evaluate", p, "--exact", "--episodes", "10"], &["invalid --episodes: 10", "with --exact"]);
+    fails_with(&["evaluate", p, "--exact", "--seed", "3"], &["invalid --seed: 3", "with --exact"]);
 }
 
 #[test]

@@ -26,3 +26,10 @@ def names(world: Any, attribute: str, count: int) -> list[str]:
     start symbol)."""
     given = list(getattr(world, attribute, None) or []) if world is not None else []
     return [given[k] if k < len(given) else ("start" if given and k == len(given) else str(k)) for k in range(count)]
+
+
+def stored_world(policy: Any) -> Any:
+    """The world stored in a policy's file, as a world object (``None`` where it has none)."""
+    from ..world import World
+
+    return World.from_dict(policy.world) if policy.world else None

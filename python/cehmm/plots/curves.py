@@ -24,6 +24,17 @@ if TYPE_CHECKING:  # pragma: no cover
 MOST_DRAWN = 1e300
 
 
+#: Per run, the colours of its mean (and elite threshold) and of its best so far: a colour
+#: each, none shared between runs (a sixth run takes the first pair again).
+CURVE_COLORS = [
+    ("tab:blue", "tab:orange"),
+    ("tab:green", "tab:red"),
+    ("tab:purple", "tab:olive"),
+    ("tab:cyan", "tab:brown"),
+    ("tab:gray", "tab:pink"),
+]
+
+
 def _history_of(run: Any) -> tuple[dict[str, Any], str]:
     """A run's history columns and label: a result, a history dict, or a history file."""
     if isinstance(run, (str, os.PathLike)):
@@ -58,8 +69,9 @@ def _drawn(history: Mapping[str, Any], field: str, run: Any, default: Any = None
 
 
 def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | None = None) -> Figure:
-    """The mean, elite threshold and best so far of each iteration, of one run or several on
-    one axes (restarts and rivals beside each other).
+    """The mean (solid), elite threshold (dotted, in the mean's colour) and best so far
+    (dashed, in a colour of its own: :data:`CURVE_COLORS`) of each iteration, of one run or
+    several on one axes (restarts and rivals beside each other), each line in the legend.
 
     Args:
         runs: results of :func:`cehmm.optimize` or :func:`cehmm.optimize_controller`, history
@@ -74,13 +86,12 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
         raise TypeError("learning_curve() needs at least one run")
     fig = figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
-    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:brown", "tab:olive"]
     for k, run in enumerate(runs):
         history, label = _history_of(run)
         label = labels[k] if labels is not None else label
         mean = _drawn(history, "mean", run)
         xs = _drawn(history, x, run, np.arange(len(mean)))
-        color = colors[k % len(colors)]
+        color, best_color = CURVE_COLORS[k % len(CURVE_COLORS)]
         # Best so far: the searches record it; for episode CE, the best mean so far.
         best = _drawn(history, "best_so_far", run, np.fmax.accumulate(mean))
         ax.plot(xs, mean, color=color, linewidth=1.0, label=f"{label}: mean")
@@ -89,11 +100,11 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
                 xs,
                 _drawn(history, "elite_threshold", run),
                 color=color,
-                linewidth=0.7,
-                linestyle="--",
+                linewidth=0.8,
+                linestyle=":",
                 label=f"{label}: elite threshold",
             )
-        ax.plot(xs, best, color=color, linewidth=1.4, linestyle=":", label=f"{label}: best so far")
+        ax.plot(xs, best, color=best_color, linewidth=1.6, linestyle="--", label=f"{label}: best so far")
     ax.set_xlabel("iteration" if x == "iteration" else "seconds")
     ax.set_ylabel("value")
     ax.grid(alpha=0.3)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ._figure import figure, names
+from ._figure import figure, names, stored_world
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -72,7 +72,7 @@ def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
     from matplotlib import colormaps as cm
     from matplotlib.colors import ListedColormap
 
-    world = world if world is not None else _stored_world(policy)
+    world = world if world is not None else stored_world(policy)
     tables = policy.tables
     h0, h1 = tables["h0"], tables["h1"]
     decisions = names(world, "actions", h0.shape[1])
@@ -82,6 +82,7 @@ def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
     left, right = fig.subplots(1, 2, width_ratios=[1.0, 1.3])
     image = left.imshow(h0, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
     left.set_title("decision given m₁ (h0)", fontsize=9)
+    left.set_xlabel("decision d")
     left.set_ylabel("m₁")
     _ticks(left.xaxis, decisions, rotate=True)
     _ticks(left.yaxis, [str(k) for k in range(h0.shape[0])])
@@ -89,6 +90,7 @@ def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
     if law.shape[1] == 1:
         image = right.imshow(law[:, 0, :], cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
         right.set_title("decision given the observation y", fontsize=9)
+        right.set_xlabel("decision d")
         _ticks(right.xaxis, decisions, rotate=True)
         fig.colorbar(image, ax=right, shrink=0.85, label="probability")
     else:
@@ -128,12 +130,6 @@ def _ticks(axis: Any, labels: list[str], rotate: bool = False) -> None:
     step = max(1, math.ceil(len(labels) / 24))
     axis.set_ticks(range(0, len(labels), step))
     axis.set_ticklabels(labels[::step], fontsize=7, rotation=60 if rotate else 0)
-
-
-def _stored_world(policy: Policy) -> Any:
-    from ..world import World
-
-    return World.from_dict(policy.world) if policy.world else None
 
 
 def memory_usage(policy: Policy, world: Any = None, episodes: int = 1000, seed: int = 0) -> dict[str, np.ndarray]:

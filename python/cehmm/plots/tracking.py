@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .. import _core
+from ..world import world_title
 from ._figure import figure, names
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -116,7 +117,8 @@ def trajectory(
     ro = policy.rollout(world, seed=seed, episode=episode)
     if start is None:
         start = _stretch(ro, length)
-    return _grid_figure(ro, _grid(ro, world), start, length, title, zoom, min_view, f"episode {episode} ")
+    what = f"episode {episode} of {world_title(world) or 'target tracking'}"
+    return _grid_figure(ro, _grid(ro, world), start, length, title, zoom, min_view, what)
 
 
 def rollout(
@@ -130,13 +132,16 @@ def rollout(
     if not is_tracking(record):
         return _timeline(record, world, title)
     length = len(record) - start if length is None else length
-    return _grid_figure(record, _grid(record, world), start, length, title, zoom, 9, "")
+    what = f"episode of {world_title(world) or 'target tracking'}"
+    return _grid_figure(record, _grid(record, world), start, length, title, zoom, 9, what)
 
 
 def _grid_figure(
-    ro: Any, params: dict[str, int], start: int, length: int, title: str, zoom: bool, min_view: int, episode: str
+    ro: Any, params: dict[str, int], start: int, length: int, title: str, zoom: bool, min_view: int, what: str
 ) -> Figure:
-    """Steps ``start .. start + length`` of a target-tracking rollout on its grid."""
+    """Steps ``start .. start + length`` of a target-tracking rollout on its grid, titled
+    ``what`` (which episode, of which world) with its reward; the times' labels that would
+    cover one of an earlier time are left out."""
     if not 0 <= start < len(ro) or length < 1:
         raise _core.InvalidArgumentError(
             f"invalid stretch: start {start}, length {length} (expected 0 <= start < {len(ro)} and length >= 1)"
@@ -183,7 +188,9 @@ def _grid_figure(
             (7, 6),
         ),
     ]
-    for label, ci, cj, style, offset in specs:
+    times: list[tuple[int, int, Any]] = []  # (first time, mobile, label)
+    most = None if len(x) <= 20 else 2  # a long stretch: a cell's first visits, then "…"
+    for mobile, (label, ci, cj, style, offset) in enumerate(specs):
         ii, jj = x[:, ci], x[:, cj]
         ax.plot(ii, jj, "-", color=style["color"], alpha=0.45, linewidth=1.2)
         ax.plot(ii, jj, linestyle="none", label=label, **style)
@@ -191,9 +198,9 @@ def _grid_figure(
         cells: dict[tuple[int, int], list[int]] = {}
         for t in range(len(x)):
             cells.setdefault((int(ii[t]), int(jj[t])), []).append(t)
-        for (gi, gj), times in cells.items():
-            ax.annotate(
-                _ranges(times),
+        for (gi, gj), visits in cells.items():
+            text = ax.annotate(
+                _ranges(visits, most),
                 (gi, gj),
                 textcoords="offset points",
                 xytext=offset,
@@ -201,6 +208,7 @@ def _grid_figure(
                 fontsize=8,
                 color=style["color"],
             )
+            times.append((visits[0], mobile, text))
     # Headings of the mobiles at the stretch's start, as arrows (0 up, 1 right, 2 down, 3 left).
     arrow = {0: (0, -0.8), 1: (0.8, 0), 2: (0, 0.8), 3: (-0.8, 0)}
     for ci, cj, ch, color in ((0, 1, 2, "black"), (3, 4, 5, "tab:blue")):
@@ -219,15 +227,30 @@ def _grid_figure(
     reward_stretch = int(sum(rewarded))
     ax.set_title(
         (title + "\n" if title else "")
-        + f"{episode}(reward {ro.reward:g}), steps {start + 1}–{stop} shown as times 0–{len(x) - 1}"
+        + f"{what} (reward {ro.reward:g}): steps {start + 1}–{stop} shown as times 0–{len(x) - 1}"
         f" ({reward_stretch} rewarded)",
         fontsize=9,
     )
+    _thin(fig, [text for _, _, text in sorted(times, key=lambda t: t[:2])])
     return fig
 
 
-def _ranges(times: Sequence[int]) -> str:
-    """``[2, 3, 4, 8]`` -> ``"2–4,8"`` (pairs stay as ``"5,6"``)."""
+def _thin(fig: Figure, labels: Sequence[Any]) -> None:
+    """Hides each of ``labels`` that would cover one before it (as the figure is laid out: the
+    same at any dpi)."""
+    fig.draw_without_rendering()
+    kept: list[Any] = []
+    for label in labels:
+        box = label.get_window_extent().padded(-0.5)
+        if any(box.overlaps(other) for other in kept):
+            label.set_visible(False)
+        else:
+            kept.append(box)
+
+
+def _ranges(times: Sequence[int], most: int | None = None) -> str:
+    """``[2, 3, 4, 8]`` -> ``"2–4,8"`` (pairs stay as ``"5,6"``); ``most``: the first ``most``
+    parts, then ``…``."""
     parts: list[str] = []
     k = 0
     while k < len(times):
@@ -239,6 +262,8 @@ def _ranges(times: Sequence[int]) -> str:
         else:
             parts.extend(str(t) for t in times[k : j + 1])
         k = j + 1
+    if most is not None and len(parts) > most:
+        parts = [*parts[:most], "…"]
     return ",".join(parts)
 
 
@@ -265,7 +290,9 @@ def _timeline(ro: Any, world: Any, title: str) -> Figure:
             ax.set_yticklabels(ticks, fontsize=7)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("step t")
-    fig.suptitle((title + "\n" if title else "") + f"one episode: {len(ro)} steps, reward {ro.reward:g}", fontsize=9)
+    of = world_title(world)
+    what = f"episode{' of ' + of if of else ''} (reward {ro.reward:g}): {len(ro)} steps"
+    fig.suptitle((title + "\n" if title else "") + what, fontsize=9)
     return fig
 
 

@@ -1,5 +1,5 @@
-//! `ceworld controller`: the cross-entropy method over deterministic controllers of any world,
-//! on exact values (a tabular world) or sampled ones (model §8).
+//! `ceworld controller`: the cross-entropy method over deterministic controllers of any world
+//! (a .pomdp file, target tracking), on exact values (a .pomdp file's) or sampled ones (model §8).
 
 use crate::Result;
 use crate::ce::controller::{ControllerConfig, Decisions, Memory, Template, ValueKind};
@@ -26,8 +26,8 @@ pub(crate) struct ControllerArgs {
     /// exact values, 0.25 on sampled ones].
     #[arg(long)]
     smoothing: Option<f64>,
-    /// How each controller is valued: "exact" (a tabular world, the default there) or "sampled"
-    /// (episodes on common random numbers: the default on every other world).
+    /// How each controller is valued: "exact" (a .pomdp file's world, the default there) or
+    /// "sampled" (episodes on common random numbers: any world, the default on every other).
     #[arg(long, value_parser = parse_value_kind, value_name = "exact|sampled")]
     value: Option<ValueKind>,
     /// The memory the laws start from: uniform, hold (a latch: nodes stay), clock (node q moves

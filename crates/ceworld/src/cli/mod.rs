@@ -3,6 +3,8 @@
 //! ([`main`]).
 
 mod controller;
+mod help;
+pub use help::PACKAGE_COMMANDS;
 mod output;
 mod qlearn;
 mod run;
@@ -13,7 +15,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::progress::{decimals, fixed};
-use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use clap::{FromArgMatches, Parser, Subcommand};
 use output::OutputArgs;
 use qlearn::{QlearnArgs, QlearnEvalArgs, run_qlearn, run_qlearn_eval};
 use serde_json::Value;
@@ -38,22 +40,27 @@ enum Command {
     /// the best policy so far (marked "interrupted" in its provenance) and, with --checkpoint,
     /// the run's state, from which --resume continues.
     Optimize(OptimizeArgs),
-    /// Search a deterministic finite-state controller of a tabular world (--pomdp FILE) by the
-    /// cross-entropy method over whole controllers, ranked by their exact values (model §8).
+    /// Search a deterministic finite-state controller of any world by the cross-entropy method
+    /// (model §8).
+    ///
+    /// The method draws whole controllers, on any world the engine has: a Cassandra .pomdp file
+    /// (--pomdp FILE) or target tracking (--case, --param). Each is valued exactly on a .pomdp
+    /// file's tabular world (--value exact, the default there) or on any world by the mean of
+    /// episodes on common random numbers (--value sampled, the default on every other world).
     ///
     /// Prints a live progress line; Ctrl-C stops between iterations and still saves the best
     /// controller so far as a policy file (two levels [n, n], one-hot tables).
     Controller(controller::ControllerArgs),
-    /// Evaluate a saved policy on fresh episodes of the world stored in its file.
+    /// Evaluate a saved policy on fresh episodes of the world stored in its file, or exactly.
     Evaluate {
         /// The policy file (JSON, model §6).
         file: PathBuf,
-        /// Number of fresh episodes.
-        #[arg(long, default_value_t = 100_000)]
-        episodes: usize,
-        /// Seed of the evaluation episodes.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
+        /// Number of fresh episodes [default: 100000] (not with --exact).
+        #[arg(long)]
+        episodes: Option<usize>,
+        /// Seed of the evaluation episodes [default: 0] (not with --exact).
+        #[arg(long)]
+        seed: Option<u64>,
         /// Worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
@@ -65,9 +72,10 @@ enum Command {
         #[arg(long, default_value_t = crate::exact::DEFAULT_TOLERANCE, requires = "exact")]
         tolerance: f64,
     },
-    /// Show a policy of a tabular world as a finite-state controller (a policy graph) in the
-    /// .pomdp file's names, and optionally save it as JSON, as Graphviz DOT or as a pomdp-solve
-    /// policy graph.
+    /// Show a policy of a tabular world as a finite-state controller (a policy graph).
+    ///
+    /// The graph is printed in the .pomdp file's names, and optionally saved as JSON, as
+    /// Graphviz DOT or as a pomdp-solve policy graph.
     Show {
         /// The policy file (JSON, model §6).
         file: PathBuf,
@@ -96,8 +104,10 @@ enum Command {
         #[command(flatten)]
         world: WorldArgs,
     },
-    /// Learn a Q table by Q-learning, the paper's baseline (model §5): the state is the last
-    /// observation and both mobiles' cells and headings, the task continuing (never reset).
+    /// Learn a Q table by Q-learning, the paper's baseline (model §5).
+    ///
+    /// The state is the last observation and both mobiles' cells and headings, the task
+    /// continuing (never reset).
     ///
     /// The table (f32; 2.6 GB for the 20×20 grid) is refused when it would not fit in memory.
     /// The run is checkpointed (table, update count, random stream, world state) every
@@ -105,13 +115,16 @@ enum Command {
     /// if it had never stopped. Then the greedy policy is evaluated on 100-step windows.
     #[command(after_long_help = QLEARN_EXAMPLE)]
     Qlearn(QlearnArgs),
-    /// Evaluate on 100-step windows, as the paper compares them, the greedy policy of a Q table
-    /// and/or HHMM policies: (a) windows from the initial state, (b) consecutive windows of long
-    /// continuing runs after a burn-in; worst, mean, best, also as % of 69.
+    /// Evaluate a Q table's greedy policy and/or HHMM policies on 100-step windows.
+    ///
+    /// As the paper compares them: (a) windows from the initial state, (b) consecutive windows of long continuing runs after
+    /// a burn-in; worst, mean, best, also as % of 69.
     QlearnEval(QlearnEvalArgs),
-    /// Run an optimiser given by its iteration step, by name (random-search: random
-    /// deterministic controllers, the best kept), its settings as --set KEY=VALUE; progress,
-    /// checkpoints, --out and --history as for every optimiser.
+    /// Run an optimiser by its name (random-search), its settings as --set KEY=VALUE.
+    ///
+    /// Any optimiser given by its iteration step (random-search: random deterministic
+    /// controllers, the best kept); progress, checkpoints, --out and --history as for every
+    /// optimiser.
     Run(run::RunArgs),
 }
 
@@ -409,13 +422,20 @@ fn run(command: Command) -> Result<()> {
     match command {
         Command::Optimize(args) => run_optimize(&args),
         Command::Controller(args) => controller::run_controller(&args),
-        Command::Evaluate { file, exact: true, tolerance, .. } => {
+        Command::Evaluate { file, exact: true, tolerance, episodes, seed, .. } => {
+            // Sampling options do not apply: refused rather than silently ignored.
+            let sampling = [("--episodes", episodes.map(|e| e.to_string())), ("--seed", seed.map(|s| s.to_string()))];
+            if let Some((option, value)) = sampling.into_iter().find_map(|(o, v)| Some((o, v?))) {
+                return Err(Error::invalid(
+                    option,
+                    format!("{value} (expected no {option} with --exact: the exact value samples no episodes)"),
+                ));
+            }
             let f = PolicyFile::load(&file)?;
             let world = AnyWorld::from_json(&f.world)?;
             let world = world.tabular().ok_or_else(|| {
                 Error::invalid("--exact", "the policy's world is not tabular (expected a pomdp world)")
             })?;
-            let started = Instant::now();
             let h = crate::exact::finite_horizon(world, &f.policy, None)?;
             println!("{}: exact expected reward at horizon {}: {:.6}", file.display(), h.steps, h.value);
             if world.tables().gamma < 1.0 {
@@ -429,13 +449,13 @@ fn run(command: Command) -> Result<()> {
                     v.steps
                 );
             }
-            eprintln!("({:.2}s)", started.elapsed().as_secs_f64());
             Ok(())
         }
         Command::Evaluate { file, episodes, seed, threads, .. } => {
             let f = PolicyFile::load(&file)?;
             let world = AnyWorld::from_json(&f.world)?;
             let pool = thread_pool(threads)?;
+            let (episodes, seed) = (episodes.unwrap_or(100_000), seed.unwrap_or(0));
             let started = Instant::now();
             let e = crate::with_world!(&world, w => pool.install(|| evaluate(w, &f.policy, episodes, seed)))?;
             let d = decimals(e.std_error);
@@ -502,7 +522,7 @@ impl std::str::FromStr for Levels {
 
     fn from_str(text: &str) -> std::result::Result<Self, String> {
         let sizes = text.split(',').map(|n| n.trim().parse::<usize>()).collect::<std::result::Result<Vec<_>, _>>();
-        sizes.map(Levels).map_err(|_| format!("{text:?} (expected sizes separated by commas, e.g. 16,16)"))
+        sizes.map(Levels).map_err(|_| format!("{text:?} (expected sizes separated by commas, e.g. --levels 16,16)"))
     }
 }
 
@@ -522,11 +542,16 @@ pub(crate) fn program() -> &'static str {
 /// as the program `program` (`"ceworld"`, `"cehmm"`); returns the exit status: 0, 2 for an
 /// error (one line naming it), 70 for a bug, 128 + the signal's number after a stop signal.
 pub fn main(program: &'static str, args: Vec<OsString>) -> u8 {
-    let command = Cli::command().name(program).bin_name(program);
-    let parsed = command.try_get_matches_from(args).and_then(|m| Cli::from_arg_matches(&m));
+    // As text, for an error clap words for another case.
+    let given: Vec<String> = args.iter().map(|a| a.to_string_lossy().into_owned()).collect();
+    let parsed = help::command(program).try_get_matches_from(args).and_then(|m| Cli::from_arg_matches(&m));
     let cli = match parsed {
         Ok(cli) => cli,
         Err(e) => {
+            if let Some(e) = help::spaced_levels(&e, &given) {
+                eprintln!("{program}: error: {e}");
+                return 2;
+            }
             // --help and --version are printed on stdout and are a success.
             let _ = e.print();
             return u8::try_from(e.exit_code()).unwrap_or(2);
