@@ -15,8 +15,9 @@ from gymnasium import spaces
 
 import cehmm
 import cehmm.gym
+from cehmm.encoded import EnvAgent, from_record
 from cehmm.pyworlds import TrackingEpisodes
-from cehmm.spaces import Bins, Flat, Grid, Hashed, encoding, from_record, space_of, space_record
+from cehmm.spaces import Bins, Flat, Grid, Hashed, encoding, space_of, space_record
 
 
 class Line(gym.Env):
@@ -172,7 +173,7 @@ def test_the_agent_takes_what_the_environment_returns_and_answers_its_action_spa
     result.policy.save(path)
     loaded = cehmm.Policy.load(path)
     agent, again = result.policy.agent(seed=3), loaded.agent(seed=3)
-    assert isinstance(agent, cehmm.spaces.EnvAgent)
+    assert isinstance(agent, EnvAgent)
     observation, _ = env.reset(seed=0)
     agent.reset()
     again.reset()
@@ -190,7 +191,7 @@ def test_the_agent_takes_what_the_environment_returns_and_answers_its_action_spa
 
 def test_an_agent_of_a_finite_world_keeps_taking_indices() -> None:
     policy = cehmm.Policy.uniform(cehmm.TargetTracking(case=1), [2])
-    assert not isinstance(policy.agent(), cehmm.spaces.EnvAgent)
+    assert not isinstance(policy.agent(), EnvAgent)
     # A Discrete environment's policy: the values are the indices (start 0).
     frozen = cehmm.optimize_controller(
         "FrozenLake-v1", nodes=1, samples=20, max_iterations=1, eval_episodes=10, select_episodes=10, progress=False

@@ -318,7 +318,14 @@ class TensorBoard(Callback):
 
     Example:
         >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
-        ...                         max_iterations=3, progress=False, tensorboard_log="runs")  # doctest: +SKIP
+        ...                         max_iterations=3, progress=False, tensorboard_log="runs")
+        >>> [name.startswith("events.out.tfevents.") for name in os.listdir("runs")]
+        [True]
+        >>> board = TensorBoard("runs")  # the steps: counted on across restarts; Q-learning's updates
+        >>> [board.step(Iteration({"iteration": k})) for k in (0, 1, 2, 0, 1)]
+        [0, 1, 2, 3, 4]
+        >>> board.step(Iteration({"updates": 2**20}))
+        1048576
     """
 
     def __init__(self, log_dir: str | os.PathLike[str]) -> None:

@@ -29,9 +29,11 @@ class ControllerResult:
     """The outcome of :func:`optimize_controller`.
 
     Attributes:
-        policy: the best controller, as a two-level policy ``[nodes, nodes]`` with one-hot
-            tables (so :meth:`Policy.evaluate`, :meth:`Policy.evaluate_exact` and
-            :meth:`Policy.graph` take it as it is).
+        policy: the best controller, as a two-level policy with one-hot tables (so
+            :meth:`Policy.evaluate`, :meth:`Policy.evaluate_exact` and :meth:`Policy.graph`
+            take it as it is): ``[nodes, nodes]`` for Moore decisions, ``[pairs, nodes]`` for
+            Mealy decisions, the lower memory the (decision, next node) pairs the machine takes
+            (docs/model.md §8); its ``levels[-1]`` are the nodes reached.
         value: its value. Exact (``kind == "exact"``): infinite-horizon when the world's
             discount is below 1 (to ``tolerance``), else at the world's horizon. Sampled: the
             mean of ``evaluation``, on fresh episodes it was not chosen on.
@@ -61,6 +63,14 @@ class ControllerResult:
         restart: the run that found it.
         run_values: the best value of each run (exact, or on the selection episodes).
         seconds: wall time.
+
+    Example:
+        >>> tiger = PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=100)
+        >>> result = optimize_controller(tiger, nodes=5, max_iterations=2, progress=False)
+        >>> result.kind, round(result.value, 2), result.evaluation
+        ('exact', 19.37, None)
+        >>> result.policy.levels, result.stop_reason, len(result.run_values)
+        ([5, 5], 'max_iterations', 1)
     """
 
     policy: Policy
@@ -83,7 +93,7 @@ class ControllerResult:
 
     def __repr__(self) -> str:
         return (
-            f"ControllerResult(value={self.value:.6f} ({self.kind}), nodes={self.policy.levels[0]}, "
+            f"ControllerResult(value={self.value:.6f} ({self.kind}), nodes={self.policy.levels[-1]}, "
             f"stop_reason={self.stop_reason!r}, runs={len(self.run_values)}, seconds={self.seconds:.1f})"
         )
 

@@ -50,7 +50,19 @@ _CELL = 12
 
 class WorldEnv(gymnasium.Env[np.int64, np.int64]):
     """A world of the engine (``name`` and its parameters, as :class:`cehmm.World` takes them) as
-    a Gymnasium environment (module docs); ``render_mode="ansi"`` prints the state's numbers."""
+    a Gymnasium environment (module docs); ``render_mode="ansi"`` prints the state's numbers.
+
+    Example:
+        >>> env = gymnasium.make(WORLD_ENV_ID, name="pomdp", file="data/pomdp/tiger.95.POMDP", horizon=10)
+        >>> env.observation_space, env.action_space
+        (Discrete(3), Discrete(3))
+        >>> observation, info = env.reset(seed=0)
+        >>> int(observation), info
+        (2, {'t': 1})
+        >>> observation, reward, terminated, truncated, info = env.step(0)  # listen
+        >>> reward, terminated, truncated
+        (-1.0, False, False)
+    """
 
     metadata: dict[str, Any] = {"render_modes": ["ansi"], "render_fps": 4}
 
@@ -93,7 +105,16 @@ class WorldEnv(gymnasium.Env[np.int64, np.int64]):
 
 class PomdpEnv(WorldEnv):
     """A ``.pomdp`` file as a Gymnasium environment (``cehmm/Pomdp-v0``; ``file=``, ``horizon=``,
-    ``discount=``, ``reward=`` as :class:`cehmm.PomdpWorld` takes them)."""
+    ``discount=``, ``reward=`` as :class:`cehmm.PomdpWorld` takes them).
+
+    Example:
+        >>> env = PomdpEnv("data/pomdp/tiger.95.POMDP", horizon=2, render_mode="ansi")
+        >>> _ = env.reset(seed=0)
+        >>> print(env.render(), end="")
+        t = 1: state 0, observation 2; reward so far 0
+        >>> [env.step(0)[2:4] for _ in range(2)]  # terminated, truncated: the horizon cuts the second
+        [(False, False), (False, True)]
+    """
 
     def __init__(self, file: str, render_mode: str | None = None, **params: Any) -> None:
         if not isinstance(file, (str, bytes, os.PathLike)):
@@ -106,7 +127,17 @@ class PomdpEnv(WorldEnv):
 
 
 class TargetTrackingEnv(WorldEnv):
-    """The paper's target-tracking world (model §4) as a Gymnasium environment (module docs)."""
+    """The paper's target-tracking world (model §4) as a Gymnasium environment (module docs).
+
+    Example:
+        >>> env = gymnasium.make(ENV_ID, case=1, width=5, height=5, start_b=[0, 4], start_c=[4, 4],
+        ...                      target_rows=[0, 2], target_cell=[2, 2], render_mode="ansi")
+        >>> _ = env.reset(seed=0)
+        >>> env.render().splitlines()  # B and C: the mobiles; R: the target
+        ['.....', '.....', '..R..', '.....', 'B...C', 't = 1, reward so far 0']
+        >>> env.observation_space, env.action_space
+        (Discrete(16), Discrete(16))
+    """
 
     metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
 
@@ -146,7 +177,7 @@ def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.nda
     """The return of each of ``episodes`` episodes of ``agent`` (e.g. :meth:`cehmm.Policy.agent`)
     in ``env``: episode ``k`` resets the environment with ``seed + k`` and the agent, then steps
     until it is terminated or truncated. An agent of a policy learnt on a Gymnasium environment
-    (:class:`cehmm.spaces.EnvAgent`) takes the environment's values as they are; any other's
+    (:class:`cehmm.encoded.EnvAgent`) takes the environment's values as they are; any other's
     observations and actions go through the flattening of the environment's finite spaces
     (:class:`cehmm.spaces.Flat`).
 
@@ -156,7 +187,8 @@ def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.nda
         >>> play(env, agent, episodes=3).shape
         (3,)
     """
-    from .spaces import EnvAgent, Flat
+    from .encoded import EnvAgent
+    from .spaces import Flat
 
     if not isinstance(agent, EnvAgent):
         agent = EnvAgent(agent, Flat(env.observation_space, "observation"), Flat(env.action_space, "action"))
@@ -174,7 +206,13 @@ def play(env: gymnasium.Env, agent: Any, episodes: int, seed: int = 0) -> np.nda
 
 
 def register_envs() -> None:
-    """Registers the environments with Gymnasium (once)."""
+    """Registers the environments with Gymnasium (once).
+
+    Example:
+        >>> register_envs()  # importing cehmm.gym did it: again, nothing changes
+        >>> sorted(env_id for env_id in gymnasium.registry if env_id.startswith("cehmm/"))
+        ['cehmm/Pomdp-v0', 'cehmm/TargetTracking-v0', 'cehmm/World-v0']
+    """
     for env_id, entry in [(ENV_ID, "TargetTrackingEnv"), (WORLD_ENV_ID, "WorldEnv"), (POMDP_ENV_ID, "PomdpEnv")]:
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=f"cehmm.gym:{entry}")

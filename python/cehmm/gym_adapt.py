@@ -22,12 +22,22 @@ import numpy as np
 from .spaces import Encoding, Flat, encoding
 from .spaces import gymnasium as _gymnasium
 
+__all__ = ["DEFAULT_HORIZON", "EnvEpisodes", "VectorBatch", "adapt", "flat", "make_env"]
+
 #: Most steps of an episode of an environment that names none.
 DEFAULT_HORIZON = 1000
 
 
 def make_env(world: Any) -> Any:
-    """The environment of an id (``gymnasium.make``) or of a factory (called with no argument)."""
+    """The environment of an id (``gymnasium.make``) or of a factory (called with no argument).
+
+    Example:
+        >>> import gymnasium
+        >>> make_env("FrozenLake-v1").spec.max_episode_steps
+        100
+        >>> make_env(lambda: gymnasium.make("CartPole-v1")).observation_space.shape
+        (4,)
+    """
     if isinstance(world, str):
         gymnasium = _gymnasium()
         try:
@@ -41,7 +51,14 @@ def make_env(world: Any) -> Any:
 
 
 def flat(space: Any, role: str = "observation") -> Flat:
-    """The flattening of a finite Gymnasium space (:class:`cehmm.spaces.Flat`); ``role`` names it in errors."""
+    """The flattening of a finite Gymnasium space (:class:`cehmm.spaces.Flat`); ``role`` names it in errors.
+
+    Example:
+        >>> from gymnasium.spaces import MultiDiscrete
+        >>> cells = flat(MultiDiscrete([3, 4]))  # row-major: the last component varies fastest
+        >>> cells.size, cells.index(np.array([2, 1])), cells.value(9)
+        (12, 9, array([2, 1]))
+    """
     return Flat(space, role)
 
 
@@ -59,7 +76,7 @@ class _Adapted:
             observation_space,
             "observation",
             choices.get("observations"),
-            lambda n, seed: warmup_observations(env, n, seed, self.horizon),
+            lambda n, seed: _warmup_observations(env, n, seed, self.horizon),
         )
         self.n_observations = self.observations.size
         self.n_decisions = self.actions.size
@@ -72,7 +89,16 @@ class _Adapted:
 class EnvEpisodes(_Adapted):
     """A Gymnasium environment in the episode protocol: observations checked against their space
     and flattened; the reward and flags passed on as the environment gave them (the engine
-    checks them, as it does any world's)."""
+    checks them, as it does any world's).
+
+    Example:
+        >>> import gymnasium
+        >>> world = EnvEpisodes(gymnasium.make("FrozenLake-v1"))
+        >>> world.n_observations, world.n_decisions, world.horizon
+        (16, 4, 100)
+        >>> world.reset(seed=0), world.step(2)[:4]  # from cell 0, "right" slipped down to cell 4
+        (0, (4, 0, False, False))
+    """
 
     def __init__(self, env: Any, horizon: int | None = None, choices: dict[str, Any] | None = None) -> None:
         super().__init__(env, env.observation_space, env.action_space, horizon, choices or {})
@@ -92,6 +118,17 @@ class VectorBatch(_Adapted):
     Its observations are checked against its (batched) observation space. In
     ``AutoresetMode.DISABLED`` the sub-environments that end are reset at once (their later
     steps are ignored by the engine), as that mode asks before they are stepped again.
+
+    Example:
+        >>> import gymnasium
+        >>> batch = VectorBatch(gymnasium.make_vec("FrozenLake-v1", num_envs=4))
+        >>> batch.batched, batch.max_batch, batch.n_observations, batch.n_decisions
+        (True, 4, 16, 4)
+        >>> batch.reset(3, seed=0)  # 3 episodes: the fourth sub-environment's are ignored
+        array([0, 0, 0])
+        >>> observations, rewards, terminated, truncated, _ = batch.step(np.array([2, 2, 1]))
+        >>> observations.shape, rewards.shape, terminated.dtype
+        ((3,), (3,), dtype('bool'))
     """
 
     batched = True
@@ -151,7 +188,21 @@ def _head(values: Any, n: int) -> Any:
 
 def adapt(env: Any, horizon: int | None = None, choices: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
     """An environment (or vector environment) in one of the two protocols, and its description;
-    ``choices`` are the encodings asked for (``{"observations": ..., "actions": ...}``)."""
+    ``choices`` are the encodings asked for (``{"observations": ..., "actions": ...}``).
+
+    Example:
+        >>> import gymnasium
+        >>> world, description = adapt(gymnasium.make("FrozenLake-v1"), horizon=50)
+        >>> type(world).__name__, world.horizon, description["id"]
+        ('EnvEpisodes', 50, 'FrozenLake-v1')
+        >>> description["spaces"]["observation"]
+        {'encoding': 'flat', 'space': {'type': 'Discrete', 'n': 16, 'start': 0}}
+        >>> from cehmm.spaces import Bins, Grid
+        >>> choices = {"observations": Bins(4, fit="bounds"), "actions": Grid(3)}
+        >>> world, _ = adapt(gymnasium.make("Pendulum-v1"), choices=choices)  # 3 bounded dimensions, 1 torque
+        >>> world.n_observations, world.n_decisions, world.actions.value(2)
+        (64, 3, array([2.], dtype=float32))
+    """
     gymnasium = _gymnasium()
     spec = getattr(env, "spec", None)
     description: dict[str, Any] = {"id": spec.id} if spec is not None else {}
@@ -163,7 +214,7 @@ def adapt(env: Any, horizon: int | None = None, choices: dict[str, Any] | None =
     return adapted, description
 
 
-def warmup_observations(env: Any, steps: int, seed: int, horizon: int | None) -> np.ndarray:
+def _warmup_observations(env: Any, steps: int, seed: int, horizon: int | None) -> np.ndarray:
     """The observations (rows) met in ``steps`` steps of uniformly random actions in ``env``
     (an environment, or a vector environment), its episodes reset with seeds ``seed``,
     ``seed + 1``, ... and cut at ``horizon``."""

@@ -51,6 +51,15 @@ class OptimizeResult:
         best_iteration: index of the best iteration.
         iterations: number of iterations run.
         seconds: wall time, evaluation included.
+
+    Example:
+        >>> result = optimize(TargetTracking(case=1), levels=[4], samples=200, max_iterations=3, progress=False)
+        >>> result.stop_reason, result.iterations, result.policy.levels
+        ('max_iterations', 3, [4])
+        >>> sorted(result.history), result.evaluation.episodes
+        (['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'seconds', 'successful'], 10000)
+        >>> result.best_mean == float(result.history["mean"].max())
+        True
     """
 
     policy: Policy

@@ -86,6 +86,23 @@ class PythonWorld:
             ``n_decisions`` or ``horizon``.
         InvalidArgumentError: a size or ``discount`` out of its domain; an environment whose
             spaces are not finite (the message says how to discretise it).
+
+    Example:
+        >>> class Coin:  # decision 1 pays 1, decision 0 nothing
+        ...     n_observations, n_decisions, horizon = 1, 2, 10
+        ...     def reset(self, seed):
+        ...         return 0
+        ...     def step(self, decision):
+        ...         return 0, float(decision), False
+        >>> world = PythonWorld(Coin(), name="coin")
+        >>> world
+        PythonWorld(coin, observations=1, decisions=2, horizon=10)
+        >>> result = cehmm.optimize(world, levels=[2], samples=100, max_iterations=5, eval_episodes=1000,
+        ...                         progress=False)
+        >>> round(result.evaluation.mean, 1)  # at most 10: decision 1 at each of the 10 steps
+        9.3
+        >>> PythonWorld("FrozenLake-v1")
+        PythonWorld(FrozenLake-v1, observations=16, decisions=4, horizon=100)
     """
 
     def __init__(

@@ -11,10 +11,10 @@ import numpy as np
 from . import _core
 from ._core import Agent, InvalidArgumentError, PolicyFormatError
 from .backend import Backend
+from .encoded import EnvAgent, recorded
 from .outside import PythonWorld, _is_gym_env
 from .ray_backend import sampled_world
 from .results import Evaluation, ExactValue, Rollout, evaluation
-from .spaces import EnvAgent, recorded
 from .world import World, core_world, world_title
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -267,7 +267,7 @@ class Policy:
         the start of each episode, then ``agent.act(observation) -> decision`` at each step; the
         memory is kept between calls. Its draws come from ``seed`` (episode ``k`` after ``k``
         resets has its own stream). Observations are the world's indices (``0..n_obs``); for a
-        policy learnt on a Gymnasium environment, an :class:`~cehmm.spaces.EnvAgent` that takes
+        policy learnt on a Gymnasium environment, an :class:`~cehmm.encoded.EnvAgent` that takes
         the observations the environment returns and answers actions of its action space,
         through the encodings the policy file recorded (:mod:`cehmm.spaces`).
 

@@ -333,6 +333,18 @@ def qlearning(
         MemoryError: the table would not fit in the memory the system reports available.
         InvalidArgumentError: a bad argument, or ``resume`` with settings other than the checkpoint's.
         PolicyMismatchError: the checkpoint was made in another world.
+
+    Example:
+        >>> small = TargetTracking(case=3, width=5, height=5, start_b=[0, 4], start_c=[4, 4],
+        ...                        target_rows=[0, 2], target_cell=[2, 2])
+        >>> learner = qlearning(small, iterations=20_000, progress=False)
+        >>> learner.updates, learner.stop_reason, learner.n_actions, learner.table.dtype
+        (20000, 'iterations', 16, dtype('float32'))
+        >>> more = qlearning(small, iterations=30_000, checkpoint="q.bin", resume=True, progress=False)
+        >>> more.updates  # no checkpoint yet: a fresh run, saved in q.bin at its end
+        30000
+        >>> qlearning(small, iterations=40_000, checkpoint="q.bin", resume=True, progress=False).updates
+        40000
     """
     settings = dict(gamma=gamma, alpha=alpha, seed=seed, ties=ties)
     if resume and checkpoint is not None and os.path.exists(checkpoint):
@@ -365,6 +377,17 @@ def evaluate_windows(
     """Any policy — an HHMM :class:`Policy` (run continuously: memory carried, start tables only at
     the very first step) or a :class:`QLearner`'s greedy policy — on the paper's windows; see
     :meth:`QLearner.evaluate_windows` for the arguments.
+
+    Example:
+        >>> small = TargetTracking(case=3, width=5, height=5, start_b=[0, 4], start_c=[4, 4],
+        ...                        target_rows=[0, 2], target_cell=[2, 2])
+        >>> sizes = dict(episodes=100, chains=2, burn_in=10, windows_per_chain=5)
+        >>> learnt = evaluate_windows(qlearning(small, iterations=10_000, progress=False), **sizes)
+        >>> learnt.from_start.episodes, learnt.continuing.episodes, learnt.reference
+        (100, 10, 69.0)
+        >>> uniform = evaluate_windows(Policy.uniform(small, [2]), small, reference=100.0, **sizes)
+        >>> [round(p) for p in uniform.percent()["from_start"]]  # worst, mean, best window
+        [54, 85, 100]
     """
     settings = dict(
         window=window, episodes=episodes, chains=chains, burn_in=burn_in, windows_per_chain=windows_per_chain

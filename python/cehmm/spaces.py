@@ -19,10 +19,10 @@ map to them through an encoding of its space, chosen by :class:`~cehmm.PythonWor
 * :class:`Grid` (``Box`` actions, the default there: 5 values a dimension): each dimension takes
   one of evenly spaced values between its bounds, a decision the row-major index of the choices.
 
-The encoding of each space is recorded in the policy file (the world's ``"spaces"``), so that
-:meth:`cehmm.Policy.agent`, :func:`cehmm.gym.play` and :meth:`cehmm.Policy.evaluate` on the
-environment replay the policy exactly: the agent takes what the environment returns and answers
-what its action space holds.
+The encoding of each space is recorded in the policy file (the world's ``"spaces"``, read back
+by :mod:`cehmm.encoded`), so that :meth:`cehmm.Policy.agent`, :func:`cehmm.gym.play` and
+:meth:`cehmm.Policy.evaluate` on the environment replay the policy exactly: the agent takes what
+the environment returns and answers what its action space holds.
 """
 
 from __future__ import annotations
@@ -83,7 +83,7 @@ class Encoding:
         )
 
     def record(self) -> dict[str, Any]:
-        """What a policy file records of it (:func:`from_record` reads it back)."""
+        """What a policy file records of it (:func:`cehmm.encoded.from_record` reads it back)."""
         raise NotImplementedError
 
     def _refuse(self, value: Any) -> None:
@@ -96,6 +96,11 @@ class Flat(Encoding):
     Raises:
         InvalidArgumentError: a space that is not finite (``Box``: :class:`Bins`) or not one of
             the kinds above, or with more than ``2**63 - 1`` values.
+
+    Example:
+        >>> from gymnasium.spaces import Discrete, MultiDiscrete
+        >>> Flat(Discrete(3, start=-1)).index(1), Flat(MultiDiscrete([3, 4])).value(9)
+        (2, array([2, 1]))
     """
 
     def __init__(self, space: Any, role: str = "observation") -> None:
@@ -175,6 +180,11 @@ class Hashed(Encoding):
     to flatten, such as a board of 52 cards): each value's components, in row-major order, go
     through BLAKE2b, the cell is the digest modulo ``size``. Pass it unfitted
     (``Hashed(4096)``) as :class:`~cehmm.PythonWorld`'s ``observations=``.
+
+    Example:
+        >>> from gymnasium.spaces import MultiDiscrete
+        >>> Hashed(16).fit(MultiDiscrete([3] * 10), "observation").index(np.full(10, 2))
+        0
     """
 
     def __init__(self, size: int = HASHED_CELLS, space: Any = None, role: str = "observation") -> None:
@@ -231,6 +241,11 @@ class Bins(Encoding):
       ``seed``, ``seed + 1``, ...);
     * ``Bins(8, fit="bounds")``: edges evenly between the space's (finite) bounds;
     * ``Bins(edges=[[...], [...]])``: one sorted list per dimension.
+
+    Example:
+        >>> from gymnasium.spaces import Box
+        >>> Bins(4, fit="bounds").fit(Box(-1.0, 1.0, shape=(2,)), "observation").index([0.1, -0.9])  # bins 2, 0
+        8
     """
 
     def __init__(
@@ -328,6 +343,11 @@ class Grid(Encoding):
     """A ``Box`` action as a finite set: dimension ``i`` takes one of ``values[i]`` (by default
     ``values`` evenly spaced values between its finite bounds, both included), a decision the
     row-major index of the choices. Unfitted: ``Grid()``, ``Grid(9)``, ``Grid(values=[[-2, 0, 2]])``.
+
+    Example:
+        >>> from gymnasium.spaces import Box
+        >>> Grid(3).fit(Box(-2.0, 2.0, shape=(1,)), "action").value(2)  # of -2, 0, 2
+        array([2.], dtype=float32)
     """
 
     def __init__(
@@ -407,7 +427,15 @@ def encoding(
 ) -> Encoding:
     """The fitted encoding of ``space`` (``role``: ``"observation"`` or ``"action"``) from the
     user's ``choice`` (``None``: the default of the module docstring; an encoding, fitted or
-    not); ``sample(steps, seed)`` gives a warm-up's observations where a fit needs them."""
+    not); ``sample(steps, seed)`` gives a warm-up's observations where a fit needs them.
+
+    Example:
+        >>> from gymnasium.spaces import Box, Discrete
+        >>> type(encoding(Discrete(5), "observation")).__name__, type(encoding(Box(-1.0, 1.0), "action")).__name__
+        ('Flat', 'Grid')
+        >>> encoding(Box(-1.0, 1.0, shape=(2,)), "observation", Bins(4, fit="bounds")).index(np.array([0.1, -0.9]))
+        8
+    """
     spaces = _gymnasium_spaces()
     if choice is None:
         if isinstance(space, spaces.Box):
@@ -507,57 +535,6 @@ def space_of(record: dict[str, Any]) -> Any:
     raise _core.PolicyFormatError(f"invalid space record: {_shown(record)} (expected a type Discrete, ..., Box)")
 
 
-def from_record(record: dict[str, Any], role: str) -> Encoding:
-    """The encoding a policy file recorded (:meth:`Encoding.record`)."""
-    try:
-        space = space_of(record["space"])
-        kind = record["encoding"]
-        if kind == "flat":
-            return Flat(space, role)
-        if kind == "hashed":
-            return Hashed(int(record["size"]), space, role)
-        if kind == "bins":
-            return Bins(edges=record["edges"], space=space, role=role)
-        if kind == "grid":
-            return Grid(record["values"], space=space, role=role)
-    except (KeyError, TypeError, ValueError) as e:
-        raise _core.PolicyFormatError(f"invalid {role} encoding record: {_shown(record)} ({e})") from e
-    raise _core.PolicyFormatError(
-        f"invalid {role} encoding record: {_shown(record)} (expected an encoding flat, hashed, bins or grid)"
-    )
-
-
-def recorded(world: dict[str, Any]) -> tuple[Encoding, Encoding] | None:
-    """The observation and action encodings a policy's world records, or None (a world of the
-    engine's, or one written in Python without spaces: its indices are its values)."""
-    found = world.get("spaces")
-    if not isinstance(found, dict):
-        return None
-    return from_record(found["observation"], "observation"), from_record(found["action"], "action")
-
-
-class EnvAgent:
-    """A policy's agent (:meth:`cehmm.Policy.agent`) that speaks an environment's spaces:
-    ``act`` takes the observation the environment returned and answers an action of its action
-    space, through the encodings the policy file recorded."""
-
-    def __init__(self, agent: Any, observations: Encoding, actions: Encoding) -> None:
-        self.indices = agent
-        self.observations = observations
-        self.actions = actions
-
-    def reset(self) -> None:
-        """Starts an episode (the memory forgets)."""
-        self.indices.reset()
-
-    def act(self, observation: Any) -> Any:
-        """The action after ``observation`` (a value of the environment's observation space)."""
-        return self.actions.value(self.indices.act(self.observations.index(observation)))
-
-    def __repr__(self) -> str:
-        return f"EnvAgent({self.observations.space} -> {self.actions.space})"
-
-
 def _numeric(value: Any) -> bool:
     try:
         np.asarray(value, dtype=float)
@@ -572,4 +549,4 @@ def _shown(value: Any) -> str:
     return text if len(text) <= 80 else text[:79] + "…"
 
 
-__all__: Iterable[str] = ["Bins", "EnvAgent", "Flat", "Grid", "Hashed", "encoding", "from_record", "recorded"]
+__all__: Iterable[str] = ["Bins", "Flat", "Grid", "Hashed", "encoding"]

@@ -37,6 +37,14 @@ class RunResult:
         stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"callback"``
             (``callback=`` returned ``False``) or ``"interrupted"``.
         seconds: wall time, every session together.
+
+    Example:
+        >>> tiger = PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=20)
+        >>> result = run("random-search", tiger, samples=20, max_iterations=3, progress=False)
+        >>> result.stop_reason, result.interrupted, len(result.history["mean"])
+        ('max_iterations', False, 3)
+        >>> result.policy.levels, result.evaluation.episodes
+        ([4, 4], 10000)
     """
 
     policy: Policy
