@@ -75,7 +75,7 @@ class PythonWorld:
         observations: for a Gymnasium environment, how its observations become indices: None
             (the default of :mod:`cehmm.spaces`: finite spaces flattened, those of more than
             4096 values hashed, a ``Box`` cut into bins at quantiles of a warm-up), or an
-            encoding of :mod:`cehmm.spaces` (``Flat()``, ``Hashed(4096)``, ``Bins(8)``,
+            encoding of :mod:`cehmm.spaces` (``Flat()``, ``Hashed(128)``, ``Bins(8)``,
             ``Bins(8, fit="bounds")``, ``Bins(edges=...)``). Recorded in policy files.
         actions: for a Gymnasium environment, how its actions are indexed: None (finite
             spaces flattened, a ``Box`` a grid of 5 values a dimension) or ``Grid(k)``,
