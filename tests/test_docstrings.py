@@ -44,25 +44,9 @@ USER_MODULES = [
     "cehmm.encoded",
 ]
 
-#: Public names without a runnable example yet: examples to add: issue 32. A name leaves this
-#: list when its example is written (the test says so).
-WITHOUT_EXAMPLE: set[str] = {
-    # plots/
-    "cehmm.plots.animation",
-    "cehmm.plots.decision_law",
-    "cehmm.plots.learning_curve",
-    "cehmm.plots.learning_curves",
-    "cehmm.plots.memory_by_step",
-    "cehmm.plots.memory_heatmap",
-    "cehmm.plots.memory_usage",
-    "cehmm.plots.memory_use",
-    "cehmm.plots.pick_episode",
-    "cehmm.plots.policy_graph",
-    "cehmm.plots.read_history",
-    "cehmm.plots.rollout",
-    "cehmm.plots.summary_bars",
-    "cehmm.plots.trajectory",
-}
+#: Public names without a runnable example yet (none since issue 32 gave the last ones theirs).
+#: A name leaves this list when its example is written (the test says so).
+WITHOUT_EXAMPLE: set[str] = set()
 
 #: Every module of the package whose examples run (a ``__main__`` runs a command when imported;
 #: the compiled engine's examples are its stub's).

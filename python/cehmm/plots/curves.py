@@ -79,6 +79,16 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
             ``best_so_far`` and ``seconds`` are drawn where given), or history files.
         x: ``"iteration"`` or ``"seconds"``.
         labels: one per run (default: the file's name, or the kind of result).
+
+    Example:
+        >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
+        ...                         max_iterations=2, progress=False)
+        >>> fig = cehmm.plots.learning_curve(result, {"mean": [1.0, 3.0, 2.0]}, labels=["ce", "rival"])
+        >>> [line.get_label() for line in fig.axes[0].get_lines()]
+        ['ce: mean', 'ce: elite threshold', 'ce: best so far', 'rival: mean', 'rival: best so far']
+        >>> fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()
+        ('iteration', 'value')
+        >>> fig.savefig("curve.png")
     """
     if x not in ("iteration", "seconds"):
         raise _core.InvalidArgumentError(f"invalid x: {x!r} (expected 'iteration' or 'seconds')")
@@ -118,6 +128,14 @@ def summary_bars(summary: Sequence[Mapping[str, Any]], paper_best: float = 69.0)
     Args:
         summary: rows as aggregated by :func:`cehmm.reproduce.aggregate` (``row``, ``mean``,
             ``std``, ``paper_reward``, ``runs`` with each seed's ``mean``).
+
+    Example:
+        >>> rows = [{"row": "case 1", "mean": 60.0, "std": 2.0, "paper_reward": 65.0,
+        ...          "runs": [{"mean": 58.0}, {"mean": 62.0}]},
+        ...         {"row": "case 2", "mean": 70.0, "std": 0.0, "paper_reward": 69.0}]
+        >>> ax = cehmm.plots.summary_bars(rows).axes[0]
+        >>> ax.get_ylabel(), [label.get_text() for label in ax.get_xticklabels()]
+        ('reward, % of 69', ['case 1', 'case 2'])
     """
     n = len(summary)
     fig = figure(figsize=(max(6.0, 0.62 * n + 2.0), 4.6), layout="constrained")
@@ -147,6 +165,14 @@ def learning_curves(curves: Sequence[Mapping[str, Any]], columns: int = 4) -> Fi
         curves: dicts with ``history`` (as :attr:`cehmm.OptimizeResult.history`), and optionally
             ``title``, ``paper`` (a reward drawn as a dotted line) and ``best_iteration``.
         columns: panels per line.
+
+    Example:
+        >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
+        ...                         max_iterations=2, progress=False)
+        >>> curves = [{"history": result.history, "title": f"seed {k}", "paper": 1.0} for k in range(3)]
+        >>> fig = cehmm.plots.learning_curves(curves, columns=2)
+        >>> [(ax.get_title(), ax.get_visible()) for ax in fig.axes]
+        [('seed 0', True), ('seed 1', True), ('seed 2', True), ('', False)]
     """
     n = max(1, len(curves))
     columns = min(columns, n)

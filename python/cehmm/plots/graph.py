@@ -49,6 +49,14 @@ def policy_graph(policy: Policy, world: Any = None, prune: float = _core.GRAPH_P
     Raises:
         InvalidArgumentError: the world is not tabular, or the graph has more than
             :data:`MOST_NODES` nodes (prune more, or draw ``policy.most_likely()``).
+
+    Example:
+        >>> tiger = cehmm.PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=10)
+        >>> fig = cehmm.plots.policy_graph(cehmm.Policy.uniform(tiger, [2]), tiger, title="Uniform")
+        >>> print(fig.axes[0].get_title())
+        Uniform
+        policy graph of tiger.95.POMDP: 2 nodes (laws ≤ 0.001 left out)
+        >>> fig.savefig("graph.png")
     """
     from matplotlib.patches import FancyArrowPatch
 

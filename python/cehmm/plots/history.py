@@ -82,6 +82,17 @@ def read_history(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
             a device, a FIFO), over :data:`MAX_HISTORY_BYTES`, or not a history (module docs);
             the message names the file, the line and what was expected.
         OSError: the file cannot be opened (``FileNotFoundError``, ``PermissionError``).
+
+    Example:
+        >>> with open("run.jsonl", "w", encoding="utf-8") as f:
+        ...     _ = f.write('{"iteration": 0, "mean": 1.5, "successful": true}\\n'
+        ...                 '{"iteration": 1, "mean": null, "successful": false}\\n')
+        >>> cehmm.plots.read_history("run.jsonl")
+        {'iteration': array([0, 1]), 'mean': array([1.5, nan]), 'successful': array([ True, False])}
+        >>> with open("run.csv", "w", encoding="utf-8") as f:
+        ...     _ = f.write("iteration,mean\\n0,1.5\\n1,2\\n")
+        >>> cehmm.plots.read_history("run.csv")["mean"]
+        array([1.5, 2. ])
     """
     shown = os.fsdecode(path)
     suffix = Path(shown).suffix

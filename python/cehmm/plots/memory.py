@@ -28,7 +28,14 @@ def _rollouts(policy: Policy, world: Any, episodes: int, seed: int) -> list[Any]
 def memory_by_step(policy: Policy, world: Any = None, episodes: int = 200, seed: int = 0) -> list[np.ndarray]:
     """For each level ``l``, the share of the episodes still running at step ``t`` whose memory
     ``m_l[t]`` is ``m``: an array ``(|M_l|, T)`` whose columns sum to 1 (episodes that end early
-    stop counting)."""
+    stop counting).
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> shares = cehmm.plots.memory_by_step(cehmm.Policy.uniform(world, [2, 3]), world, episodes=5)
+        >>> [share.shape for share in shares], bool(np.allclose(shares[1].sum(axis=0), 1.0))
+        ([(2, 100), (3, 100)], True)
+    """
     rollouts = _rollouts(policy, world, episodes, seed)
     steps = max(len(r) for r in rollouts)
     counts = [np.zeros((size, steps)) for size in policy.levels]
@@ -43,7 +50,15 @@ def memory_by_step(policy: Policy, world: Any = None, episodes: int = 200, seed:
 def memory_use(policy: Policy, world: Any = None, episodes: int = 200, seed: int = 0, title: str = "") -> Figure:
     """Heat maps of the memory states visited at each level against time over ``episodes``
     rollouts (one panel per level, bottom level first; colour: the share of the episodes in
-    that state at that step)."""
+    that state at that step).
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> fig = cehmm.plots.memory_use(cehmm.Policy.uniform(world, [2, 3]), world, episodes=5)
+        >>> [ax.get_title() for ax in fig.axes[:2]], fig.axes[1].get_xlabel()
+        (['level 1: 2 of 2 states visited', 'level 2: 3 of 3 states visited'], 'step t (5 episodes)')
+        >>> fig.savefig("memory.png")
+    """
     shares = memory_by_step(policy, world, episodes, seed)
     fig = figure(figsize=(7.0, 1.0 + 2.2 * len(shares)), layout="constrained")
     axes = fig.subplots(len(shares), 1, squeeze=False, sharex=True)[:, 0]
@@ -68,7 +83,17 @@ def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
     the decision given the observation ``y`` and the memory above ``m₂`` (``Σ_m₁ h1[y, m₂, m₁]
     h0[m₁, d]``: with one level, a map ``y × d``; with more, the likeliest decision per
     ``(y, m₂)``, shaded by its probability). Names come from the world where it has them
-    (default: the policy's stored world)."""
+    (default: the policy's stored world).
+
+    Example:
+        >>> tiger = cehmm.PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=10)
+        >>> fig = cehmm.plots.decision_law(cehmm.Policy.uniform(tiger, [2]), tiger)
+        >>> law = fig.axes[1]
+        >>> law.get_title(), [label.get_text() for label in law.get_yticklabels()]
+        ('decision given the observation y', ['tiger-left', 'tiger-right', 'start'])
+        >>> [label.get_text() for label in law.get_xticklabels()]
+        ['listen', 'open-left', 'open-right']
+    """
     from matplotlib import colormaps as cm
     from matplotlib.colors import ListedColormap
 
@@ -134,7 +159,14 @@ def _ticks(axis: Any, labels: list[str], rotate: bool = False) -> None:
 
 def memory_usage(policy: Policy, world: Any = None, episodes: int = 1000, seed: int = 0) -> dict[str, np.ndarray]:
     """Visit counts over ``episodes`` rollouts: ``"m1_y"`` (|M_1| × Y) and, with two levels or
-    more, ``"m1_m2"`` (|M_1| × |M_2|)."""
+    more, ``"m1_m2"`` (|M_1| × |M_2|).
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> counts = cehmm.plots.memory_usage(cehmm.Policy.uniform(world, [2, 3]), world, episodes=5)
+        >>> {key: value.shape for key, value in counts.items()}, int(counts["m1_y"].sum())
+        ({'m1_y': (2, 16), 'm1_m2': (2, 3)}, 500)
+    """
     levels = policy.levels
     m1_y = np.zeros((levels[0], policy.n_obs), dtype=np.int64)
     m1_m2 = np.zeros((levels[0], levels[1]), dtype=np.int64) if len(levels) > 1 else None
@@ -150,7 +182,16 @@ def memory_usage(policy: Policy, world: Any = None, episodes: int = 1000, seed: 
 
 def memory_heatmap(policy: Policy, world: Any = None, episodes: int = 1000, seed: int = 0, title: str = "") -> Figure:
     """Heat maps of how the learned memory is used: frequency of (m₁, y), and of (m₁, m₂) when the
-    policy has two levels or more, over ``episodes`` rollouts (log colour scale)."""
+    policy has two levels or more, over ``episodes`` rollouts (log colour scale).
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> fig = cehmm.plots.memory_heatmap(cehmm.Policy.uniform(world, [2, 3]), world, episodes=5)
+        >>> for ax in fig.axes[:2]:
+        ...     print(f"{ax.get_title()}: x {ax.get_xlabel()}, y {ax.get_ylabel()}")
+        m₁ against the observation (5 episodes): x observation y (= obs_B + 4·obs_C), y m₁
+        m₁ against m₂ (5 episodes): x m₂, y m₁
+    """
     from matplotlib.colors import LogNorm
 
     counts = memory_usage(policy, world, episodes, seed)

@@ -52,7 +52,16 @@ def _rewarded(x: np.ndarray, radius: int) -> np.ndarray:
 
 
 def pick_episode(policy: Policy, world: TargetTracking, seed: int = 0, candidates: int = 50) -> int:
-    """The first of ``candidates`` episodes whose reward is nearest the policy's mean over them."""
+    """The first of ``candidates`` episodes whose reward is nearest the policy's mean over them.
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=3)
+        >>> policy = cehmm.Policy.uniform(world, [2])
+        >>> [policy.rollout(world, episode=k).reward for k in range(10)]
+        [0.0, 8.0, 0.0, 7.0, 0.0, 0.0, 0.0, 0.0, 0.0, 24.0]
+        >>> cehmm.plots.pick_episode(policy, world, candidates=10)  # the mean is 3.9
+        3
+    """
     rewards = np.array([policy.rollout(world, seed=seed, episode=k).reward for k in range(candidates)])
     return int(np.argmin(np.abs(rewards - rewards.mean())))
 
@@ -111,6 +120,15 @@ def trajectory(
         title: the figure's title.
         zoom: show only the cells around the stretch (at least ``min_view`` a side; the grid's
             border is drawn thick), else the whole grid.
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=3)
+        >>> fig = cehmm.plots.trajectory(cehmm.Policy.uniform(world, [2]), world, episode=1, start=20, length=5)
+        >>> fig.axes[0].get_title()
+        'episode 1 of target tracking, case 3 (reward 8): steps 21–25 shown as times 0–4 (... rewarded)'
+        >>> fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()
+        ('i (column)', 'j (row)')
+        >>> fig.savefig("trajectory.png")
     """
     if episode is None:
         episode = pick_episode(policy, world, seed)
@@ -128,7 +146,18 @@ def rollout(
     tracking, steps ``start .. start + length`` (default: all) on the grid, as
     :func:`trajectory` draws them (``world`` gives the grid's size; default 20 × 20); for any
     other world, its observations, decisions and memory states against time (``world`` gives
-    their names)."""
+    their names).
+
+    Example:
+        >>> tiger = cehmm.PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=10)
+        >>> fig = cehmm.plots.rollout(cehmm.Policy.uniform(tiger, [2]).rollout(tiger), tiger)
+        >>> [ax.get_ylabel() for ax in fig.axes], fig.axes[-1].get_xlabel()
+        (['observation y', 'decision d', 'memory m_1'], 'step t')
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> episode = cehmm.Policy.uniform(world, [2]).rollout(world)
+        >>> episode.plot(world=world, length=10).axes[0].get_title()
+        'episode of target tracking, case 1 (reward 0): steps 1–10 shown as times 0–9 (0 rewarded)'
+    """
     if not is_tracking(record):
         return _timeline(record, world, title)
     length = len(record) - start if length is None else length
@@ -324,6 +353,12 @@ def animation(
 
     Raises:
         InvalidArgumentError: the rollout is not of target tracking, or ``steps`` < 1.
+
+    Example:
+        >>> world = cehmm.TargetTracking(case=1)
+        >>> episode = cehmm.Policy.uniform(world, [2]).rollout(world)
+        >>> cehmm.plots.animation(episode, "episode.gif", world, steps=2)  # or episode.animate(...)
+        'episode.gif'
     """
     if not is_tracking(record):
         raise _core.InvalidArgumentError(
