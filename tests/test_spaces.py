@@ -232,3 +232,18 @@ def test_a_vector_environment_of_box_spaces_is_binned_and_stepped_as_a_batch() -
         vector, nodes=2, samples=20, episodes=3, select_episodes=20, eval_episodes=50, max_iterations=3, progress=False
     )
     assert cehmm.gym.play(Line(), result.policy.agent(), episodes=5).mean() > 10
+
+
+class Board(gym.Env):
+    """A 52-part board of 3 values each and 104 decisions (Concentration's shape), never stepped."""
+
+    observation_space = spaces.MultiDiscrete([3] * 52)
+    action_space = spaces.Discrete(104)
+
+
+def test_a_controller_whose_policy_file_may_not_fit_is_refused_before_the_search() -> None:
+    # 64 Mealy nodes (the registers' turn) on 1024 cells and 104 decisions: up to 6656 pairs,
+    # 437 million entries; refused naming the nodes and what to change, before any episode.
+    big = cehmm.PythonWorld(Board(), observations=Hashed(1024), horizon=10)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid nodes: 64 with Mealy decisions.*Hashed\(k\)"):
+        cehmm.optimize_controller(big, max_iterations=1, progress=False)

@@ -139,6 +139,27 @@ impl Controller {
         Controller::moore(act, next)
     }
 
+    /// Refuses, before a search, controllers of up to `nodes` nodes (`mealy`: with Mealy
+    /// decisions) whose policy file ([`Controller::to_hhmm`]) may not fit: `[nodes, nodes]`, or
+    /// for a Mealy machine `[pairs, nodes]` with up to `nodes · min(Y, D)` pairs.
+    pub fn check_fits(nodes: usize, mealy: bool, n_obs: usize, n_actions: usize) -> Result<()> {
+        let pairs = if mealy { nodes * n_obs.min(n_actions) } else { nodes };
+        let fits = Layout::new(n_obs, n_actions, &[pairs, nodes]).and_then(Layout::fits_in_memory);
+        fits.map(drop).map_err(|e| {
+            if !mealy {
+                return e;
+            }
+            crate::error::Error::invalid(
+                "nodes",
+                format!(
+                    "{nodes} with Mealy decisions on {n_obs} observations and {n_actions} decisions: its policy file \
+                     may hold {pairs} (decision, next node) pairs, and {e} (expected fewer nodes or observations: \
+                     cehmm.spaces.Hashed(k) or Bins; memory \"nodes\" for no registers; or Moore decisions)"
+                ),
+            )
+        })
+    }
+
     /// The two-level one-hot HHMM of this controller (module docs).
     pub fn to_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
         if self.is_mealy() {
@@ -245,5 +266,11 @@ mod tests {
         // Two nodes that swap on every observation and decide the node: pairs (0, 1), (1, 0).
         let swap = Controller::mealy(vec![0, 0, 1, 1], vec![1, 1, 0, 0], 2).to_hhmm(2, 2).unwrap();
         assert_eq!(swap.levels(), [2, 2]);
+        // Before a search: 64 Mealy nodes on 1024 observations and 104 decisions may need 6656
+        // pairs, 437 million entries: refused, naming the nodes; over 256 observations they fit.
+        let e = Controller::check_fits(64, true, 1024, 104).unwrap_err().to_string();
+        assert!(e.contains("invalid nodes: 64 with Mealy decisions") && e.contains("6656"), "{e}");
+        Controller::check_fits(64, true, 256, 104).unwrap();
+        Controller::check_fits(64, false, 1024, 104).unwrap();
     }
 }

@@ -28,7 +28,6 @@ use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::evaluate::{Evaluation, closing_rewards};
-use crate::policy::Layout;
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
 
@@ -90,7 +89,7 @@ pub fn optimize_controller_observed(
     };
     // The policy must fit before the search (its size known once the model start is).
     let most = start.as_ref().map_or(config.most_nodes(), |s| s.nodes() + config.growths);
-    Layout::new(y1, n_actions, &[most, most])?.fits_in_memory()?;
+    Controller::check_fits(most, (0..3).any(|r| config.memory_of(r).mealy), y1, n_actions)?;
     if let Valued::Sampled(_) = world {
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
