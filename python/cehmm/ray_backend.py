@@ -385,8 +385,12 @@ class RayPending:
             raise
 
     def cancel(self) -> None:
-        """Stops every task still running (their worker processes are ended)."""
-        for ref in self._refs:
+        """Stops every task still running (their worker processes are ended). Only those not
+        done: Ray 2.60's driver aborts its process (``Check failed: ... Tried to complete task
+        that was not pending``, in its task manager) when a task it force-cancels completes at
+        the same moment, as the other shards of a batch do when all raise one error at once."""
+        _, running = self._ray.wait(self._refs, num_returns=len(self._refs), timeout=0, fetch_local=False)
+        for ref in running:
             self._ray.cancel(ref, force=True)
 
 
