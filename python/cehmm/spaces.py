@@ -87,6 +87,19 @@ class Encoding:
         """What a policy file records of it (:func:`cehmm.encoded.from_record` reads it back)."""
         raise NotImplementedError
 
+    def check(self, value: Any) -> None:
+        """Refuses a value that is not in the space (``space.contains``: type, shape, range).
+
+        Raises:
+            WorldError: naming the value and the space.
+        """
+        try:
+            inside = bool(self.space.contains(value))
+        except Exception:  # noqa: BLE001 - a value contains() cannot even read is not in the space
+            inside = False
+        if not inside:
+            self._refuse(value)
+
     def _refuse(self, value: Any) -> None:
         raise _core.WorldError(f"{self.role} {_shown(value)} is not in the space {self.space}")
 
@@ -140,19 +153,6 @@ class Flat(Encoding):
                 "observations that many are hashed: cehmm.spaces.Hashed)"
             )
 
-    def check(self, value: Any) -> None:
-        """Refuses a value that is not in the space (``space.contains``: type, shape, range).
-
-        Raises:
-            WorldError: naming the value and the space.
-        """
-        try:
-            inside = bool(self.space.contains(value))
-        except Exception:  # noqa: BLE001 - a value contains() cannot even read is not in the space
-            inside = False
-        if not inside:
-            self._refuse(value)
-
     def index(self, value: Any) -> int:
         self.check(value)
         return self._index(value)
@@ -194,21 +194,18 @@ class Hashed(Encoding):
         self.size = int(size)
         self.space = space
         self.role = role
+        # A value's components, read the same way at every step: made once.
+        self._digits = None if space is None else _digits_of(space, role)
 
     def fit(self, space: Any, role: str) -> Hashed:
         """This encoding for ``space``: it must be finite (``Discrete``, ``MultiDiscrete``,
         ``MultiBinary`` or a ``Tuple`` of them)."""
-        _digits_of(space, role)
         return Hashed(self.size, space, role)
 
     def index(self, value: Any) -> int:
-        try:
-            inside = bool(self.space.contains(value))
-        except Exception:  # noqa: BLE001 - as Flat.check
-            inside = False
-        if not inside:
-            self._refuse(value)
-        digits = np.asarray(_digits_of(self.space, self.role)(value), dtype="<i8")
+        assert self._digits is not None, "an unfitted Hashed has no space"
+        self.check(value)
+        digits = np.asarray(self._digits(value), dtype="<i8")
         digest = hashlib.blake2b(digits.tobytes(), digest_size=8).digest()
         return int.from_bytes(digest, "little") % self.size
 
@@ -329,7 +326,7 @@ class Bins(Encoding):
 
     def index(self, value: Any) -> int:
         assert self.edges is not None, "an unfitted Bins has no cells"
-        x = np.asarray(value, dtype=float) if _numeric(value) else None
+        x = _floats(value)
         if x is None or x.shape != tuple(self.space.shape) or not np.all(np.isfinite(x)):
             self._refuse(value)
         digits = [int(np.searchsorted(e, v, side="right")) for e, v in zip(self.edges, np.ravel(x))]
@@ -536,12 +533,12 @@ def space_of(record: dict[str, Any]) -> Any:
     raise _core.PolicyFormatError(f"invalid space record: {_shown(record)} (expected a type Discrete, ..., Box)")
 
 
-def _numeric(value: Any) -> bool:
+def _floats(value: Any) -> np.ndarray | None:
+    """A value as an array of floats, or None where it is not numbers."""
     try:
-        np.asarray(value, dtype=float)
+        return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        return False
-    return True
+        return None
 
 
 def _shown(value: Any) -> str:

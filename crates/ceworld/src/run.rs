@@ -277,7 +277,7 @@ mod tests {
     use super::*;
     use crate::ce::stopping::StopReason;
     use crate::world::pomdp::PomdpWorld;
-    use crate::{CeConfig, QConfig, TargetTracking, TrackingParams, random_policy};
+    use crate::{CeConfig, QConfig, TargetTracking, random_policy};
 
     /// What a callback saw: each record, whether the best changed, and the best policy then.
     type Seen = Mutex<Vec<(Map<String, Value>, bool, Option<PolicyFile>)>>;
@@ -383,17 +383,7 @@ mod tests {
 
     #[test]
     fn q_learning_finishes_after_the_chunk_its_callback_stops() {
-        let world = TargetTracking::with_params(TrackingParams {
-            width: 5,
-            height: 5,
-            start_b: [0, 4],
-            start_c: [4, 4],
-            target_rows: [0, 2],
-            target_cell: [2, 2],
-            ..TrackingParams::default()
-        })
-        .unwrap();
-        let mut learner = QLearner::new(world, QConfig::default()).unwrap();
+        let mut learner = QLearner::new(crate::qlearn::tests::small_world(), QConfig::default()).unwrap();
         let seen = Seen::default();
         let callback = keeping(&seen, 0, Flow::Finish);
         let outcome =

@@ -195,4 +195,4 @@ impl QConfig {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

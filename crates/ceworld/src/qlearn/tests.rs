@@ -97,7 +97,8 @@ impl KnownState for Cycle {
     }
 }
 
-fn small_world() -> TargetTracking {
+/// A 5 × 5 tracking world small enough to learn in a test (also the run spine's tests').
+pub(crate) fn small_world() -> TargetTracking {
     TargetTracking::with_params(TrackingParams {
         width: 5,
         height: 5,
