@@ -106,7 +106,7 @@ impl PyPolicy {
 
     /// The policy document (model §6) as JSON text.
     fn to_json(&self) -> String {
-        self.file.to_json().to_string()
+        self.file.to_text()
     }
 
     /// Memory sizes per level, bottom first.

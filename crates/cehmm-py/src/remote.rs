@@ -156,9 +156,7 @@ impl Remote {
 
     /// `policy` as a policy document: what the workers read.
     fn policy_json(&self, policy: &Hhmm) -> String {
-        PolicyFile { policy: policy.clone(), world: self.description.clone(), provenance: json!({}) }
-            .to_json()
-            .to_string()
+        PolicyFile { policy: policy.clone(), world: self.description.clone(), provenance: json!({}) }.to_text()
     }
 }
 

@@ -1,5 +1,7 @@
 //! Evaluation of a policy on fresh episodes, and the record of one of them (a rollout).
 
+use std::time::Instant;
+
 use serde::Serialize;
 
 pub use crate::episodes::check_fits;
@@ -131,19 +133,24 @@ fn episode_rewards<E: Episodes + ?Sized>(
 }
 
 /// Rewards of the episodes `0..episodes` of streams `(seed, purpose, 0, k)` that finish before
-/// the world's interrupt cuts them (all of them where nothing does), in order, run in slices of
-/// [`Episodes::slice`] episodes: what an interrupted run can still tell of what it kept. An
-/// abort is an error.
+/// the world's interrupt cuts them (all of them where nothing does) and before `deadline`, in
+/// order, run in slices of [`Episodes::slice`] episodes (of at most [`CLOSING_SLICE`] under a
+/// deadline, the first always run): what an interrupted run can still tell of what it kept, and
+/// what a run's time limit leaves time for. An abort is an error.
 pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
     world: &E,
     policy: &Hhmm,
     episodes: usize,
     seed: u64,
     purpose: Purpose,
+    deadline: Option<Instant>,
 ) -> Result<Vec<f64>> {
-    let slice = world.slice().max(1);
+    let slice = if deadline.is_some() { world.slice().min(CLOSING_SLICE) } else { world.slice() }.max(1);
     let mut rewards = Vec::with_capacity(episodes);
     for start in (0..episodes).step_by(slice) {
+        if start > 0 && deadline.is_some_and(|d| Instant::now() >= d) {
+            break;
+        }
         match episode_rewards(world, policy, start..episodes.min(start + slice), seed, purpose) {
             Ok(part) => rewards.extend(part),
             Err(Error::Interrupted) if !world.interrupt().is_some_and(crate::control::Interrupt::aborted) => break,
@@ -153,10 +160,34 @@ pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
     Ok(rewards)
 }
 
+/// The episodes of a closing evaluation run between two looks at its deadline.
+pub const CLOSING_SLICE: usize = 256;
+
+/// The most of a time limit that a run keeps for its closing evaluations: its iterations have
+/// at least the rest.
+pub const MOST_CLOSING_SHARE: f64 = 0.5;
+
+/// The seconds a run with a time limit of `limit` seconds keeps for closing evaluations of
+/// `episodes` episodes in all, at `per_episode` seconds an episode (as its iterations ran them),
+/// so that the evaluations fit inside the limit: at most [`MOST_CLOSING_SHARE`] of it (an
+/// evaluation that needs more is cut at the limit, and has fewer episodes); 0 without a limit.
+pub fn closing_reserve(limit: Option<f64>, per_episode: f64, episodes: usize) -> f64 {
+    limit.map_or(0.0, |t| (per_episode.max(0.0) * episodes as f64).min(t * MOST_CLOSING_SHARE))
+}
+
+/// The instant `seconds` from now (`None`: none; now where none are left).
+fn deadline_in(seconds: Option<f64>) -> Option<Instant> {
+    seconds.map(|s| {
+        let now = Instant::now();
+        if s.is_finite() && s > 0.0 { now + std::time::Duration::from_secs_f64(s.min(1e9)) } else { now }
+    })
+}
+
 /// The rewards with which a run closes (its final evaluation, the score that chooses between
 /// restarts): of the episodes `0..episodes` of streams `(seed, purpose, 0, k)`, in slices, those
-/// that finish before the world's interrupt cuts them (all of them where nothing does), and
-/// whether it cut them. An `interrupted` run closes within the interrupt's grace; a run that
+/// that finish before the world's interrupt cuts them (all of them where nothing does) and
+/// within the `left` seconds of a time limit (fewer episodes, the run not interrupted), and whether
+/// the interrupt cut them. An `interrupted` run closes within the interrupt's grace; a run that
 /// ended by its own rules and is interrupted while it closes keeps the slices done (Ctrl-C
 /// during the final evaluation gives the result with a shorter evaluation). An abort is an
 /// error.
@@ -166,10 +197,11 @@ pub(crate) fn closing_rewards<E: Episodes + ?Sized>(
     episodes: usize,
     seed: u64,
     purpose: Purpose,
+    left: Option<f64>,
 ) -> Result<(Vec<f64>, bool)> {
     check_fits(world, policy)?;
-    let rewards = rewards_until_cut(world, policy, episodes, seed, purpose)?;
-    let cut = rewards.len() < episodes;
+    let rewards = rewards_until_cut(world, policy, episodes, seed, purpose, deadline_in(left))?;
+    let cut = rewards.len() < episodes && world.interrupt().is_some_and(crate::control::Interrupt::stopping);
     Ok((rewards, cut))
 }
 

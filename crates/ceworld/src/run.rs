@@ -51,6 +51,8 @@ pub struct Iteration<'a> {
     /// iteration ([`Step::score`]: the iteration's mean for the CE method, the best value so
     /// far for the controller search). Q-learning: its progress after a chunk of updates
     /// ([`crate::qlearn::QProgress`]) and `iteration`, the chunk's number in this call (from 0).
+    /// Every optimiser's has `run` too: the run among the restarts it belongs to (from 0, kept
+    /// across a resume; 0 without restarts).
     pub record: &'a Map<String, Value>,
     /// Whether the best policy may differ from the one of the callback's last call (true at
     /// the first): a caller that keeps it asks [`Iteration::best_policy`] again only then.
@@ -93,6 +95,7 @@ impl RunOptions<'_> {
             let called = self.callback.map_or(Flow::Continue, |callback| {
                 let mut record = fields(seen.step);
                 record.insert("score".into(), json!(seen.step.score()));
+                record.insert("run".into(), json!(seen.run));
                 let best_changed = std::mem::take(&mut first) || seen.step.record().successful;
                 let best = || (seen.best)().map(|policy| Some(to_file(policy)));
                 callback(&Iteration { record: &record, best_changed, best: &best })
@@ -191,6 +194,7 @@ pub fn qlearn<W: KnownState>(
         let called = options.callback.map_or(Flow::Continue, |callback| {
             let mut record = fields(p);
             record.insert("iteration".into(), json!(chunk));
+            record.insert("run".into(), json!(0));
             callback(&Iteration { record: &record, best_changed: chunk == 0, best: &|| Ok(None) })
         });
         chunk += 1;

@@ -369,8 +369,6 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
                 .map(|r| {
                     let mut r = r.clone();
                     r.record.seconds = 0.0;
-                    // What it cost: a resumed search scores some selection episodes again.
-                    r.episodes = 0;
                     r
                 })
                 .collect::<Vec<_>>()
@@ -485,4 +483,24 @@ fn the_memoryless_stage_keeps_the_best_memoryless_policy_and_memory_adds_to_it()
     let found = optimize_controller(Valued::Exact(&tiger), &one, |_| Flow::Continue).unwrap();
     assert!(found.history.iter().all(|r| !r.widened));
     assert!((found.value - memoryless).abs() < 1e-6);
+}
+
+#[test]
+fn the_time_limit_holds_the_final_evaluation_of_sampled_values_too() {
+    let w = world("cheese.95.POMDP", 100, None);
+    let config = ControllerConfig {
+        nodes: 2,
+        samples: 50,
+        time_limit: Some(1.0),
+        patience: 1_000_000,
+        eval_episodes: 10_000_000,
+        ..ControllerConfig::defaults_for(ceworld::ce::controller::ValueKind::Sampled)
+    };
+    let clock = std::time::Instant::now();
+    let out = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
+    let wall = clock.elapsed().as_secs_f64();
+    let evaluation = out.evaluation.expect("sampled values are evaluated");
+    assert_eq!(out.stop, StopReason::TimeLimit);
+    assert!(evaluation.episodes > 0 && evaluation.episodes < 10_000_000, "{evaluation:?}");
+    assert!(wall < 1.5 && out.seconds < 1.5, "{wall} s, {} s", out.seconds);
 }

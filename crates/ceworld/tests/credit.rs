@@ -148,5 +148,9 @@ fn a_credited_search_resumes_from_its_checkpoint_bit_for_bit() {
     assert!(sessions > 2, "{sessions} sessions");
     assert_eq!(found(&resumed), found(&whole));
     assert_eq!(resumed.run_values, whole.run_values);
+    // The same episodes too: the checkpoints keep the selection scores.
+    let episodes =
+        |o: &ceworld::ce::controller::ControllerOutcome| o.history.iter().map(|r| r.episodes).collect::<Vec<_>>();
+    assert_eq!(episodes(&resumed), episodes(&whole));
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -660,3 +660,29 @@ fn a_world_describes_nothing_unless_it_says_so() {
     world.describe(&1.0, &mut out);
     assert_eq!(out, [7]);
 }
+
+#[test]
+fn the_time_limit_holds_the_final_evaluation_too() {
+    // Ten million evaluation episodes of 300 steps take minutes: inside a 1 s time limit the
+    // iterations stop early enough for an evaluation cut at the limit, with fewer episodes,
+    // and the run is not marked interrupted (with restarts too: each run's score as well).
+    let world = Sum { horizon: 300, n_obs: 1, n_decisions: 2 };
+    for restarts in [1, 2] {
+        let config = CeConfig {
+            samples: 100,
+            time_limit: Some(1.0),
+            max_iterations: None,
+            patience: 1_000_000,
+            eval_episodes: 10_000_000,
+            restarts,
+            ..CeConfig::default()
+        };
+        let clock = std::time::Instant::now();
+        let r = optimize(&world, uniform_policy(&world, &[2]).unwrap(), &config, |_| Flow::Continue).unwrap();
+        let wall = clock.elapsed().as_secs_f64();
+        assert_eq!(r.stop, StopReason::TimeLimit, "restarts {restarts}");
+        assert!(r.evaluation.episodes > 0 && r.evaluation.episodes < 10_000_000, "{:?}", r.evaluation);
+        // The limit, and what one slice of the evaluation past it takes on a loaded machine.
+        assert!(wall < 1.5 && r.seconds < 1.5, "restarts {restarts}: {wall} s, {} s", r.seconds);
+    }
+}

@@ -15,7 +15,7 @@ use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, GRACE, Interrupt, thread_pool};
 use crate::episodes::{Batch, Episodes, Remote, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, check_fits, closing_rewards};
+use crate::evaluate::{Evaluation, check_fits, closing_reserve, closing_rewards};
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream_key};
 
@@ -95,7 +95,10 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
             // The first run always runs (at least one iteration), however little time is left.
             run.time_limit = Some(left.max(f64::MIN_POSITIVE));
         }
-        let mut result = match optimize_once(world, initial.clone(), &run, resume, &mut observer, &mut saver) {
+        // A run closes with its evaluation, and between restarts with its score too.
+        let closings = if config.restarts > 1 { 2 } else { 1 };
+        let mut result = match optimize_once(world, initial.clone(), &run, closings, resume, &mut observer, &mut saver)
+        {
             // Cut before its first iteration: the runs that finished are what there is.
             Err(Error::Interrupted) if !saver.state.finished.is_empty() && !aborted(world) => {
                 stopped = true;
@@ -110,8 +113,9 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
             return Ok(result);
         }
         let policy = &result.policy;
+        let left = config.time_limit.map(|t| t - saver.seconds());
         let (scored, cut) =
-            pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select))?;
+            pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select, left))?;
         if cut {
             // Interrupted while scored: the checkpoint holds the run, which a resume closes again.
             result.stop = StopReason::Interrupted;
@@ -180,11 +184,13 @@ fn digest(policy: &Hhmm) -> String {
 }
 
 /// One run of [`optimize_with`] (its `restarts` is ignored), from `initial` or from the saved
-/// state `resume`.
+/// state `resume`, keeping of its time limit what `closings` evaluations of `eval_episodes`
+/// take ([`closing_reserve`]): its iterations stop that much before it.
 fn optimize_once<E: Episodes + ?Sized>(
     world: &E,
     initial: Hhmm,
     config: &CeConfig,
+    closings: usize,
     resume: Option<RunState>,
     observer: &mut dyn FnMut(&Observed<'_, IterationRecord>) -> Flow,
     saver: &mut Saver<'_, CeRun>,
@@ -205,7 +211,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     let before = history.last().map_or(0.0, |r| r.seconds);
     // A resumed run whose last iteration meets a stopping rule (the same as before with the same
     // settings; new stopping rules may let it go on) ends at once.
-    let mut stop = history.last().and_then(|r| stopping_rule(config, r, unsuccessful));
+    let mut stop = history.last().and_then(|r| stopping_rule(config, r, unsuccessful, 0.0));
     // Episodes sampled elsewhere keep their records there.
     let recorded = stop.is_none() && remote.is_none();
     let mut records = vec![0u16; if recorded { n * stride } else { 0 }];
@@ -216,6 +222,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     let chunk = elite_count.div_ceil(pool.current_num_threads()).max(1);
     while stop.is_none() {
         let (iteration, seed) = (history.len(), config.seed);
+        let iteration_started = Instant::now();
         let streams = Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 };
         let sampled = pool.install(|| {
             let records = remote.is_none().then_some((&mut records[..], &mut lengths[..]));
@@ -272,33 +279,51 @@ fn optimize_once<E: Episodes + ?Sized>(
         };
         history.push(record.clone());
         let best_policy = || Ok(best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"));
-        let flow = observer(&Observed { step: &record, best: &best_policy });
+        let flow = observer(&Observed { step: &record, best: &best_policy, run: saver.state.restart });
         let interrupted = world.interrupt().is_some_and(Interrupt::stopping).then_some(StopReason::Interrupted);
-        stop = interrupted.or(StopReason::asked(flow)).or_else(|| stopping_rule(config, &record, unsuccessful));
+        // What the closing evaluations keep of the time limit, as this iteration's episodes ran.
+        let per_episode = iteration_started.elapsed().as_secs_f64() / n as f64;
+        let reserve = closing_reserve(config.time_limit, per_episode, closings * config.eval_episodes);
+        stop =
+            interrupted.or(StopReason::asked(flow)).or_else(|| stopping_rule(config, &record, unsuccessful, reserve));
         saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful));
     }
     let stop = stop.expect("the loop ends with a reason");
     // A run cut before its first iteration has nothing to keep.
     let (_, best_iteration, best_policy) = best.ok_or(Error::Interrupted)?;
-    let interrupted = stop == StopReason::Interrupted;
-    // What an interrupted run kept is evaluated (and scored) for at most the interrupt's grace.
-    world.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
-    let (episodes, seed) = (config.eval_episodes, config.seed);
-    let (rewards, cut) = pool.install(|| closing_rewards(world, &best_policy, episodes, seed, Purpose::Evaluate))?;
-    // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
-    let stop = if cut { StopReason::Interrupted } else { stop };
+    // Inside the time limit: the closing evaluations share what is left of it.
+    let left = config.time_limit.map(|t| (t - before - started.elapsed().as_secs_f64()) / closings as f64);
+    let (evaluation, stop) = evaluated(world, &best_policy, config, stop, left, &pool)?;
     Ok(CeResult {
         policy: best_policy,
         last_policy: policy,
         best_iteration,
         history,
         stop,
-        evaluation: Evaluation::from_rewards(&rewards),
+        evaluation,
         seconds: before + started.elapsed().as_secs_f64(),
         restart: 0,
         restart_scores: Vec::new(),
         checkpoint_error: None,
     })
+}
+
+/// The final evaluation of a run's best `policy`, within the `left` seconds of its time limit,
+/// and why the run stopped: `stop`, or interrupted where an interrupt cut the evaluation (the
+/// result stands, with the episodes evaluated so far). What an interrupted run kept is
+/// evaluated for at most the interrupt's grace.
+fn evaluated<E: Episodes + ?Sized>(
+    world: &E,
+    policy: &Hhmm,
+    config: &CeConfig,
+    stop: StopReason,
+    left: Option<f64>,
+    pool: &rayon::ThreadPool,
+) -> Result<(Evaluation, StopReason)> {
+    world.interrupt().filter(|_| stop == StopReason::Interrupted).inspect(|i| i.grace(GRACE));
+    let (rewards, cut) =
+        pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Evaluate, left))?;
+    Ok((Evaluation::from_rewards(&rewards), if cut { StopReason::Interrupted } else { stop }))
 }
 
 /// Where the episodes are sampled elsewhere, what counts the elite there; refuses the
@@ -352,9 +377,10 @@ fn snapshot(
 }
 
 /// The stopping rule that holds after iteration `record` with `unsuccessful` unsuccessful
-/// iterations in a row, if any (model §3): the shared rules on the iteration's mean.
-fn stopping_rule(config: &CeConfig, record: &IterationRecord, unsuccessful: usize) -> Option<StopReason> {
-    config.stop_rules().check(record.iteration + 1, record.mean, unsuccessful, record.seconds)
+/// iterations in a row, if any (model §3): the shared rules on the iteration's mean, the time
+/// limit `reserve` seconds early (what the closing evaluations keep).
+fn stopping_rule(config: &CeConfig, record: &IterationRecord, unsuccessful: usize, reserve: f64) -> Option<StopReason> {
+    config.stop_rules().check(record.iteration + 1, record.mean, unsuccessful, record.seconds + reserve)
 }
 
 /// The elite's counts, laid out as the policy's tables (model §3): integers summed per chunk of

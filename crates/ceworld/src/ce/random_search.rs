@@ -93,6 +93,7 @@ impl Stepped for RandomSearch {
             seed: c.seed,
             threads: c.threads,
             eval_episodes: c.eval_episodes,
+            episodes: c.samples.saturating_mul(c.episodes),
         }
     }
 

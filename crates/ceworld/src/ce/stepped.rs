@@ -16,7 +16,7 @@ use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, thread_pool};
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, evaluate};
+use crate::evaluate::{Evaluation, closing_reserve, closing_rewards};
 use crate::policy::Hhmm;
 use crate::policy::file::PolicyFile;
 use crate::settings::Settings;
@@ -36,6 +36,9 @@ pub struct Rules {
     pub threads: Option<usize>,
     /// Fresh episodes the result is evaluated on.
     pub eval_episodes: usize,
+    /// About how many episodes an iteration runs: the final evaluation's time is foreseen from
+    /// them, and kept at the end of the time limit.
+    pub episodes: usize,
 }
 
 /// An optimiser as its state between two iterations and its iteration step. Registering it in
@@ -169,6 +172,8 @@ pub fn run_stepped_observed<O: Stepped>(
         Some(run) => run,
         None => SteppedRun { state: pool.install(|| O::start(world, config))?, history: Vec::new(), since: 0 },
     };
+    // What the final evaluation keeps of the time limit, as the last iteration's episodes ran.
+    let mut reserve = 0.0;
     let stop = loop {
         let iteration = run.history.len();
         let rule = if run.since >= rules.patience && iteration > 0 {
@@ -176,13 +181,14 @@ pub fn run_stepped_observed<O: Stepped>(
         } else if rules.max_iterations.is_some_and(|m| iteration >= m) {
             Some(StopReason::MaxIterations)
         } else {
-            rules.time_limit.filter(|&limit| saver.seconds() >= limit).map(|_| StopReason::TimeLimit)
+            rules.time_limit.filter(|&limit| saver.seconds() + reserve >= limit).map(|_| StopReason::TimeLimit)
         };
         // The stop rules are read afresh on resume (they may differ between sessions).
         if let Some(stop) = rule {
             break stop;
         }
         let mut next = run.state.clone();
+        let started = std::time::Instant::now();
         let mut record = match pool.install(|| next.step(world, config, iteration)) {
             Ok(record) => record,
             // An iteration a stop cut is dropped: the state is the one before it.
@@ -192,19 +198,27 @@ pub fn run_stepped_observed<O: Stepped>(
             Err(e) => return Err(e),
         };
         record.iteration = iteration;
+        let per_episode = started.elapsed().as_secs_f64() / rules.episodes.max(1) as f64;
+        reserve = closing_reserve(rules.time_limit, per_episode, rules.eval_episodes);
         record.seconds = saver.seconds();
         run.state = next;
         run.since = if record.successful { 0 } else { run.since + 1 };
         run.history.push(record.clone());
         saver.save_run(false, || run.clone());
         let best = || run.state.policy(world);
-        if let Some(stop) = StopReason::asked(observe(&Observed { step: &record, best: &best })) {
+        if let Some(stop) = StopReason::asked(observe(&Observed { step: &record, best: &best, run: 0 })) {
             break stop;
         }
     };
     saver.save_run(true, || run.clone());
     let policy = run.state.policy(world)?;
-    let evaluation = pool.install(|| evaluate(world, &policy, rules.eval_episodes, rules.seed))?;
+    // Inside the time limit: what is left of it (an interrupt does not cut it: the run's
+    // iterations are over).
+    let left = rules.time_limit.map(|t| t - saver.seconds());
+    let (episodes, seed) = (rules.eval_episodes, rules.seed);
+    let (rewards, _) =
+        pool.install(|| closing_rewards(world, &policy, episodes, seed, crate::rng::Purpose::Evaluate, left))?;
+    let evaluation = Evaluation::from_rewards(&rewards);
     Ok(SteppedOutcome {
         policy,
         history: run.history,

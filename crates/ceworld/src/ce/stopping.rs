@@ -63,6 +63,8 @@ pub struct Observed<'a, S> {
     pub step: &'a S,
     /// The best policy so far (of the current run, where there are restarts).
     pub best: &'a dyn Fn() -> Result<Hhmm>,
+    /// The run it belongs to among the restarts (from 0; 0 without restarts).
+    pub run: usize,
 }
 
 /// When an optimisation stops.

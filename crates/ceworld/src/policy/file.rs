@@ -1,9 +1,9 @@
 //! Policy files: the JSON of model §6 (`"format": "cehmm-policy", "version": 1`).
 
-use std::io::Write;
 use std::path::Path;
 
-use serde_json::{Map, Value, json};
+use serde::{Serialize, Serializer};
+use serde_json::{Map, Value};
 
 use crate::error::{Error, Result};
 use crate::policy::{Hhmm, Layout, TableShape};
@@ -26,13 +26,50 @@ pub struct PolicyFile {
     pub provenance: Value,
 }
 
-/// Nests a flat row-major slice into JSON arrays of shape `dims`.
-fn nest(data: &[f64], dims: &[usize]) -> Value {
-    if dims.len() == 1 {
-        return Value::Array(data.iter().map(|&x| json!(x)).collect());
+/// A flat row-major slice as the nested JSON arrays of shape `dims`, serialised as it is
+/// written: a file of any size is written without a copy of its tables.
+struct Nested<'a> {
+    data: &'a [f64],
+    dims: &'a [usize],
+}
+
+impl Serialize for Nested<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        if self.dims.len() == 1 {
+            return serializer.collect_seq(self.data);
+        }
+        let inner: usize = self.dims[1..].iter().product();
+        let rows = self.data.chunks(inner.max(1)).take(self.dims[0]);
+        serializer.collect_seq(rows.map(|data| Nested { data, dims: &self.dims[1..] }))
     }
-    let inner: usize = dims[1..].iter().product();
-    Value::Array(data.chunks(inner.max(1)).take(dims[0]).map(|c| nest(c, &dims[1..])).collect())
+}
+
+/// An upper level's tables (model §6).
+#[derive(Serialize)]
+struct Upper<'a> {
+    start: Nested<'a>,
+    step: Nested<'a>,
+}
+
+/// The tables of a policy document (model §6).
+#[derive(Serialize)]
+struct Tables<'a> {
+    h0: Nested<'a>,
+    h1: Nested<'a>,
+    upper: Vec<Upper<'a>>,
+}
+
+/// A policy document as it is written, its keys in the order of a JSON object's (sorted).
+#[derive(Serialize)]
+struct Document<'a> {
+    format: &'static str,
+    levels: &'a [usize],
+    n_actions: usize,
+    n_obs: usize,
+    policy: Tables<'a>,
+    provenance: &'a Value,
+    version: u64,
+    world: &'a Value,
 }
 
 /// Flattens nested JSON arrays, checking they have shape `dims`.
@@ -69,29 +106,38 @@ fn kind(v: &Value) -> &'static str {
 }
 
 impl PolicyFile {
-    /// The JSON document.
-    pub fn to_json(&self) -> Value {
+    /// The document as it is written ([`PolicyFile::save`]), serialised from the tables.
+    fn document<'a>(&'a self) -> Document<'a> {
         let h = &self.policy;
         let l = h.layout();
-        let table = |t: &TableShape| nest(&h.probs()[t.offset..t.offset + t.rows * t.cols], &t.dims);
-        let upper: Vec<Value> = (2..=l.depth())
-            .map(|lv| {
-                json!({
-                    "start": table(&l.tables[Layout::start_table(lv)]),
-                    "step": table(&l.tables[Layout::step_table(lv)]),
-                })
+        let probs = h.probs();
+        let table = |t: &'a TableShape| Nested { data: &probs[t.offset..t.offset + t.rows * t.cols], dims: &t.dims };
+        let upper = (2..=l.depth())
+            .map(|lv| Upper {
+                start: table(&l.tables[Layout::start_table(lv)]),
+                step: table(&l.tables[Layout::step_table(lv)]),
             })
             .collect();
-        json!({
-            "format": FORMAT,
-            "version": VERSION,
-            "n_obs": l.n_obs,
-            "n_actions": l.n_actions,
-            "levels": l.levels,
-            "world": self.world,
-            "policy": { "h0": table(&l.tables[0]), "h1": table(&l.tables[1]), "upper": upper },
-            "provenance": self.provenance,
-        })
+        Document {
+            format: FORMAT,
+            levels: &l.levels,
+            n_actions: l.n_actions,
+            n_obs: l.n_obs,
+            policy: Tables { h0: table(&l.tables[0]), h1: table(&l.tables[1]), upper },
+            provenance: &self.provenance,
+            version: VERSION,
+            world: &self.world,
+        }
+    }
+
+    /// The JSON document.
+    pub fn to_json(&self) -> Value {
+        serde_json::to_value(self.document()).expect("JSON values serialise")
+    }
+
+    /// The JSON document as text, as [`PolicyFile::save`] writes it.
+    pub fn to_text(&self) -> String {
+        serde_json::to_string(&self.document()).expect("JSON values serialise")
     }
 
     /// Reads a document, checking format, version, shapes and every row (model §6); unknown
@@ -167,8 +213,9 @@ impl PolicyFile {
     /// Writes the file (JSON) safely: a unique temporary file, synced, renamed over the target
     /// (`crate::files`); a target that is a directory or a device is refused.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let text = serde_json::to_string(&self.to_json()).expect("JSON values serialise");
-        crate::files::write_atomic(path.as_ref(), |w| w.write_all(text.as_bytes()))
+        // Streamed into the file: no text or JSON tree of the tables is held (a large
+        // controller's file may be hundreds of megabytes).
+        crate::files::write_atomic(path.as_ref(), |w| serde_json::to_writer(w, &self.document()).map_err(Into::into))
     }
 
     /// Reads and checks a file.

@@ -38,6 +38,14 @@ pub struct SearchState {
     /// itself): the later runs start their memory around it.
     #[serde(default)]
     pub memoryless: Option<(f64, Controller)>,
+    /// The search's scores on the selection episodes so far (by controller digest: the
+    /// search's store, [`super::value::Scores`]), filled as the state is saved.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scores: Vec<(String, f64)>,
+    /// What a memoryless stage's best must beat and its noise, once computed (kept with the
+    /// scores: a resumed search does not run its episodes again).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bar: Option<(f64, f64)>,
 }
 
 /// A run that is over.
@@ -56,6 +64,14 @@ pub struct FinishedSearch {
     /// The best memoryless policy of its memoryless stage, if it had one.
     #[serde(default)]
     pub memoryless: Option<(f64, Controller)>,
+    /// The search's scores on the selection episodes when it ended (the last run over alone
+    /// keeps them: [`SearchState::scores`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scores: Vec<(String, f64)>,
+    /// What a memoryless stage's best must beat and its noise, once computed (kept with the
+    /// scores: a resumed search does not run its episodes again).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bar: Option<(f64, f64)>,
 }
 
 /// What is inconsistent in one run's records, if anything (every record of the same run).

@@ -27,7 +27,7 @@ use crate::episodes::credit::StepCredit;
 use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
-use crate::evaluate::{Evaluation, closing_rewards};
+use crate::evaluate::{Evaluation, closing_reserve, closing_rewards};
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
 
@@ -37,8 +37,8 @@ pub use config::{
 use laws::Laws;
 use memory::ALTERNATE_SHARES;
 pub use outcome::{ControllerIteration, ControllerOutcome};
-use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
+use value::{Scores, Seen};
 
 use crate::ce::resume::{Checkpointing, Saver};
 use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
@@ -88,8 +88,7 @@ pub fn optimize_controller_observed(
         Valued::Sampled(_) => None,
     };
     // The policy must fit before the search (its size known once the model start is).
-    let most = start.as_ref().map_or(config.most_nodes(), |s| s.nodes() + config.growths);
-    Controller::check_fits(most, (0..3).any(|r| config.memory_of(r).mealy), y1, n_actions)?;
+    check_policy_fits(start.as_ref(), config, y1, n_actions)?;
     if let Valued::Sampled(_) = world {
         let bytes = (config.samples * config.episodes + config.select_episodes * config.candidates) as u64 * 8;
         crate::memory::check_memory("the values of one iteration", bytes, crate::memory::available_memory())?;
@@ -111,15 +110,19 @@ pub fn optimize_controller_observed(
         Valued::Sampled(w) => Values::Sampled(w),
         Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
+    let most = start.as_ref().map_or(config.most_nodes(), |s| s.nodes() + config.growths);
     let seen = Seen::new(most, y1);
-    let (bar, episodes) = (std::sync::OnceLock::new(), std::sync::atomic::AtomicU64::new(0));
-    let search = Search { config, values, seen, bar, episodes, start, y1, n_actions, pool };
+    let episodes = std::sync::atomic::AtomicU64::new(0);
+    let reserve = std::sync::atomic::AtomicU64::new(0);
+    let (scores, bar) = kept_values(&saver.state)?;
+    let search = Search { config, values, seen, scores, bar, episodes, reserve, start, y1, n_actions, pool };
     let (mut interrupted, mut stopped, mut out_of_time) = (None, false, false);
     while saver.state.restart < config.runs() {
         let restart = saver.state.restart;
         let resume = saver.state.run.take();
         // A later run starts only while time is left (the first always runs).
-        if restart > 0 && resume.is_none() && config.time_limit.is_some_and(|t| saver.seconds() >= t) {
+        if restart > 0 && resume.is_none() && config.time_limit.is_some_and(|t| saver.seconds() + search.reserve() >= t)
+        {
             out_of_time = true;
             break;
         }
@@ -142,6 +145,10 @@ pub fn optimize_controller_observed(
             break;
         }
         let stop = run.stop;
+        // The last run over holds the scores (for a resume before the next run's first save).
+        if let Some(last) = saver.state.finished.last_mut() {
+            (last.scores, last.bar) = (Vec::new(), None);
+        }
         saver.state.finished.push(run);
         saver.state.restart += 1;
         saver.save(true);
@@ -173,23 +180,45 @@ pub fn optimize_controller_observed(
         checkpoint_error: None,
     };
     if let Valued::Sampled(w) = world {
-        // The value reported comes from episodes the controller was not chosen on; an
-        // interrupted search's for at most the interrupt's grace.
-        let interrupted = outcome.stop == StopReason::Interrupted;
-        w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
-        let (policy, episodes, seed) = (&outcome.policy, config.eval_episodes, config.seed);
-        let (rewards, cut) = search.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate))?;
-        if cut {
-            // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
-            outcome.stop = StopReason::Interrupted;
-        }
-        let evaluation = Evaluation::from_rewards(&rewards);
-        outcome.value = evaluation.mean;
-        outcome.evaluation = Some(evaluation);
+        search.evaluate(w, &mut outcome, config.time_limit.map(|t| t - saver.seconds()))?;
     }
     outcome.seconds = saver.seconds();
     outcome.checkpoint_error = saver.failed.take();
     Ok(outcome)
+}
+
+/// Refuses a search whose largest controller's policy may not fit (model §8): the model's
+/// start and its growths, or each memory the runs take ([`Controller::check_fits`]).
+fn check_policy_fits(start: Option<&Controller>, config: &ControllerConfig, y1: usize, n_actions: usize) -> Result<()> {
+    match start {
+        Some(s) => {
+            let (nodes, mealy) = (s.nodes() + config.growths, (0..3).any(|r| config.memory_of(r).mealy));
+            let memory = format!("the model's start and growths {}", config.growths);
+            Controller::check_fits("model_nodes", &memory, nodes, mealy, y1, n_actions)
+        }
+        None => config.check_memories(|option, memory, m| {
+            let nodes = m.nodes + if m.registers == 0 { config.growths } else { 0 };
+            Controller::check_fits(option, memory, nodes, m.mealy, y1, n_actions)
+        }),
+    }
+}
+
+/// The selection scores and the memoryless stage's bar a checkpoint kept: those of its run in
+/// progress, or of the last run over (none in a fresh search).
+fn kept_values(state: &checkpoint::ControllerCheckpoint) -> Result<(Scores, std::sync::OnceLock<(f64, f64)>)> {
+    let (scores, bar) = (Scores::default(), std::sync::OnceLock::new());
+    let saved = match (&state.run, state.finished.last()) {
+        (Some(run), _) => Some((&run.scores, run.bar)),
+        (None, Some(last)) => Some((&last.scores, last.bar)),
+        (None, None) => None,
+    };
+    if let Some((saved, known)) = saved {
+        scores.restore(saved)?;
+        if let Some(known) = known {
+            let _ = bar.set(known);
+        }
+    }
+    Ok((scores, bar))
 }
 
 /// Controllers valued at once on sampled values with `episodes` each, where a world runs
@@ -211,13 +240,18 @@ enum Values<'a> {
 struct Search<'a> {
     config: &'a ControllerConfig,
     values: Values<'a>,
-    /// Values already computed: exact, or on the selection episodes.
+    /// Exact values already computed.
     seen: Seen,
+    /// Scores on the selection episodes already computed (kept by checkpoints).
+    scores: Scores,
     /// What a memoryless stage's best must beat ([`Search::bar`]) and the gain that counts in
     /// it ([`Search::stage_noise`]), once computed.
     bar: std::sync::OnceLock<(f64, f64)>,
     /// The world's episodes run since the last record.
     episodes: std::sync::atomic::AtomicU64,
+    /// The seconds kept for the final evaluation at the end of the time limit, as the last
+    /// iteration's episodes ran ([`closing_reserve`]; the bits of an `f64`).
+    reserve: std::sync::atomic::AtomicU64,
     /// The controller built from the model, if any: the runs have its nodes, their laws start
     /// around it, and it is the first controller of the first iteration.
     start: Option<Controller>,
@@ -305,6 +339,30 @@ impl Search<'_> {
         })
     }
 
+    /// Evaluates the outcome of a search on sampled values on fresh episodes (its value is
+    /// theirs: the controller was not chosen on them), within the `left` seconds of the time
+    /// limit; an interrupted search's for at most the interrupt's grace.
+    fn evaluate(&self, w: &dyn Episodes, outcome: &mut ControllerOutcome, left: Option<f64>) -> Result<()> {
+        let interrupted = outcome.stop == StopReason::Interrupted;
+        w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
+        let (policy, episodes, seed) = (&outcome.policy, self.config.eval_episodes, self.config.seed);
+        let (rewards, cut) =
+            self.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate, left))?;
+        if cut {
+            // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
+            outcome.stop = StopReason::Interrupted;
+        }
+        let evaluation = Evaluation::from_rewards(&rewards);
+        outcome.value = evaluation.mean;
+        outcome.evaluation = Some(evaluation);
+        Ok(())
+    }
+
+    /// The seconds kept for the final evaluation at the end of the time limit.
+    fn reserve(&self) -> f64 {
+        f64::from_bits(self.reserve.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
     /// Counts `episodes` of the world run for the next record.
     fn ran(&self, episodes: usize) {
         self.episodes.fetch_add(episodes as u64, std::sync::atomic::Ordering::Relaxed);
@@ -316,7 +374,7 @@ impl Search<'_> {
     fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
         let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
         let m = self.config.select_episodes;
-        let scores: Vec<Option<f64>> = controllers.iter().map(|c| self.seen.get(c)).collect();
+        let scores: Vec<Option<f64>> = controllers.iter().map(|c| self.scores.get(c)).collect();
         let new: Vec<Controller> =
             controllers.iter().zip(&scores).filter(|(_, s)| s.is_none()).map(|(c, _)| c.clone()).collect();
         let mut values = vec![0.0; new.len() * m];
@@ -325,7 +383,7 @@ impl Search<'_> {
         self.ran(values.len());
         let mut fresh = new.iter().zip(values.chunks(m)).map(|(c, v)| {
             let score = mean(v.iter().copied());
-            self.seen.keep(c, score);
+            self.scores.keep(c, score);
             score
         });
         Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
@@ -391,6 +449,8 @@ impl Search<'_> {
             injections: 0,
             growths: 0,
             memoryless: stage,
+            scores: Vec::new(),
+            bar: None,
         })
     }
 
@@ -425,7 +485,10 @@ impl Search<'_> {
             loop {
                 let iteration = state.history.len();
                 // The time limit as an instant, so that the exact values can check it as they go.
-                let deadline = share.or(config.time_limit).map(|t| {
+                let limit = config.time_limit.map(|t| t - self.reserve());
+                let end = share.map_or(limit, |s| Some(limit.map_or(s, |l| s.min(l))));
+                let started = std::time::Instant::now();
+                let deadline = end.map(|t| {
                     std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
                 });
                 let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
@@ -434,7 +497,13 @@ impl Search<'_> {
                     Ok(drawn) => {
                         let cut = drawn.cut;
                         let record = self.learn(&mut state, &drawn, restart, saver.seconds());
-                        let flow = observe(&Observed { step: &record, best: &|| self.best_policy(&state) });
+                        let flow =
+                            observe(&Observed { step: &record, best: &|| self.best_policy(&state), run: restart });
+                        if let Values::Sampled(_) = self.values {
+                            let per_episode = started.elapsed().as_secs_f64() / record.episodes.max(1) as f64;
+                            let kept = closing_reserve(config.time_limit, per_episode, config.eval_episodes);
+                            self.reserve.store(kept.to_bits(), std::sync::atomic::Ordering::Relaxed);
+                        }
                         let (value, seconds) = (record.best_so_far, record.record.seconds);
                         state.history.push(record);
                         if self.interrupt().is_some_and(Interrupt::stopping) {
@@ -442,7 +511,10 @@ impl Search<'_> {
                         } else {
                             let over_share = share.is_some_and(|t| seconds >= t);
                             StopReason::asked(flow)
-                                .or_else(|| rules.check(state.history.len(), value, state.since_progress, seconds))
+                                .or_else(|| {
+                                    let closing = seconds + self.reserve();
+                                    rules.check(state.history.len(), value, state.since_progress, closing)
+                                })
                                 .or((cut || over_share).then_some(StopReason::TimeLimit))
                         }
                     }
@@ -455,7 +527,11 @@ impl Search<'_> {
                     // Cut before the run's first iteration: nothing to keep.
                     break StopReason::Interrupted;
                 }
-                saver.save_run(stop.is_some(), || state.clone());
+                saver.save_run(stop.is_some(), || SearchState {
+                    scores: self.scores.saved(),
+                    bar: self.bar.get().copied(),
+                    ..state.clone()
+                });
                 if let Some(stop) = stop {
                     break stop;
                 }
@@ -464,7 +540,9 @@ impl Search<'_> {
         // A run cut before its first iteration has nothing to keep.
         let (value, controller, best_iteration) = state.best.ok_or(Error::Interrupted)?;
         let memoryless = state.memoryless;
-        Ok(FinishedSearch { value, controller, best_iteration, history: state.history, stop, memoryless })
+        let (history, scores) = (state.history, self.scores.saved());
+        let bar = self.bar.get().copied();
+        Ok(FinishedSearch { value, controller, best_iteration, history, stop, memoryless, scores, bar })
     }
 
     /// The iteration's controllers drawn from `laws` and valued, best first, with the candidate

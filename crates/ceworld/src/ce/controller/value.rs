@@ -262,3 +262,77 @@ impl Seen {
         self.values.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 }
+
+/// The scores of the controllers a sampled search has met on its fixed selection episodes, by
+/// their digest, so that a controller drawn again is not run again, and a resumed search (its
+/// checkpoint holds them) runs the episodes the uninterrupted search runs, and records the same
+/// history: at most [`Scores::MOST`] are kept, the whole store cleared when full.
+#[derive(Default)]
+pub struct Scores {
+    values: std::sync::Mutex<std::collections::HashMap<[u8; 16], f64>>,
+}
+
+impl Scores {
+    /// The most scores kept (about 40 MB in memory, and in a checkpoint).
+    pub const MOST: usize = 1 << 20;
+
+    /// The score kept for `c`, if any.
+    pub fn get(&self, c: &Controller) -> Option<f64> {
+        self.lock().get(&digest(c)).copied()
+    }
+
+    /// Keeps `score` as the score of `c`.
+    pub fn keep(&self, c: &Controller, score: f64) {
+        let mut values = self.lock();
+        if values.len() >= Self::MOST {
+            values.clear();
+        }
+        values.insert(digest(c), score);
+    }
+
+    /// Every score kept, by the digest in hex, in the digests' order (as a checkpoint holds them).
+    pub fn saved(&self) -> Vec<(String, f64)> {
+        let mut all: Vec<(String, f64)> = self.lock().iter().map(|(d, &s)| (crate::files::hex(d), s)).collect();
+        all.sort_by(|a, b| a.0.cmp(&b.0));
+        all
+    }
+
+    /// The scores `saved` held ([`Scores::saved`]) in place of those kept; a digest that is not
+    /// 32 hex digits is refused, naming it.
+    pub fn restore(&self, saved: &[(String, f64)]) -> crate::error::Result<()> {
+        let mut values = std::collections::HashMap::with_capacity(saved.len());
+        for (hex, score) in saved {
+            let bytes = (hex.len() == 32 && hex.bytes().all(|b| b.is_ascii_hexdigit()))
+                .then(|| {
+                    (0..16).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16)).collect::<Result<Vec<u8>, _>>()
+                })
+                .and_then(std::result::Result::ok)
+                .and_then(|b| <[u8; 16]>::try_from(b).ok())
+                .ok_or_else(|| {
+                    crate::error::Error::format(format!("a selection score's digest {hex:?} (expected 32 hex digits)"))
+                })?;
+            values.insert(bytes, *score);
+        }
+        *self.lock() = values;
+        Ok(())
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, std::collections::HashMap<[u8; 16], f64>> {
+        self.values.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+/// The first 16 bytes of the SHA-256 of a controller's tables (their lengths and entries).
+fn digest(c: &Controller) -> [u8; 16] {
+    use sha2::{Digest, Sha256};
+    let mut h = Sha256::new();
+    for table in [&c.act, &c.on, &c.next] {
+        h.update((table.len() as u64).to_le_bytes());
+        for v in table {
+            h.update(v.to_le_bytes());
+        }
+    }
+    let mut out = [0u8; 16];
+    out.copy_from_slice(&h.finalize()[..16]);
+    out
+}
