@@ -241,6 +241,15 @@ fn policy_file_round_trip() {
     file.save(&path).unwrap();
     let back = PolicyFile::load(&path).unwrap();
     assert!(back == file, "tables, world and provenance must come back bit-identical");
+    // Streamed to disk, the file is the document's JSON text, its keys in order.
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(text, file.to_json().to_string());
+    assert_eq!(text, file.to_text());
+    assert!(
+        text.starts_with(r#"{"format":"cehmm-policy","levels":[4,3],"n_actions":16,"n_obs":16,"policy":{"h0":[["#),
+        "{}",
+        &text[..80]
+    );
     let world = TargetTracking::from_json(&back.world).unwrap();
     assert_eq!(world, TargetTracking::new(3).unwrap());
     std::fs::remove_dir_all(dir).ok();
