@@ -36,7 +36,10 @@ pub struct CeConfig {
     /// Stop after this many iterations.
     #[cfg_attr(feature = "cli", arg(long))]
     pub max_iterations: Option<usize>,
-    /// Stop after this many seconds (checked between iterations).
+    /// Stop after this many seconds (checked between iterations), the final evaluation (and
+    /// with restarts each run's score) included: the iterations stop early by what those take,
+    /// and an evaluation that does not fit is cut at the limit, with fewer episodes
+    /// ([`crate::evaluate::closing_reserve`]).
     #[cfg_attr(feature = "cli", arg(long))]
     pub time_limit: Option<f64>,
     /// Stop as soon as an iteration's mean reward reaches this value.

@@ -29,7 +29,7 @@ pub struct RandomSearchConfig {
     pub patience: usize,
     /// Stop after this many iterations.
     pub max_iterations: Option<usize>,
-    /// Stop after this many seconds.
+    /// Stop after this many seconds, the final evaluation included (cut at the limit).
     pub time_limit: Option<f64>,
     /// Seed of every random stream.
     pub seed: u64,

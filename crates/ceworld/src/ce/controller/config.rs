@@ -132,8 +132,9 @@ pub struct ControllerConfig {
     pub target: Option<f64>,
     /// Stop after this many seconds (checked before each controller's evaluation on exact
     /// values, between groups of about 1024 episodes on sampled ones, before each iteration on
-    /// a backend: an iteration cut by it does not refit the laws; the returned controller's
-    /// evaluation on sampled values comes after it).
+    /// a backend: an iteration cut by it does not refit the laws). It holds the returned
+    /// controller's evaluation on sampled values too: the iterations stop early by what it
+    /// would take, and it is cut at the limit, with fewer episodes ([`crate::evaluate::closing_reserve`]).
     #[cfg_attr(feature = "cli", arg(long))]
     pub time_limit: Option<f64>,
     /// Absolute tolerance of each controller's infinite-horizon value (discount below 1), and
