@@ -8,10 +8,15 @@ style with two habits of Sphinx, read here as mkdocstrings reads Markdown.
   where the object has a page, else the name as code (an *optional* autoref: never a warning).
 * Parameters documented together (``seed, episode: the episode``, numpy's way) become one entry
   each, the later ones pointing to the first, as Google's ``Args:`` lists them.
+* A default read from the engine (``samples: int = CE_DEFAULTS["samples"]``, the defaults'
+  one home) is shown as its value (``1000``): the expression is evaluated in its module, as
+  imported (the installed package, engine included).
 """
 
 from __future__ import annotations
 
+import ast
+import importlib
 import re
 from typing import Any
 
@@ -87,4 +92,35 @@ class CehmmDocstrings(griffe.Extension):
             seen.add(id(obj))
             if obj.docstring is not None:
                 obj.docstring.value = _rewrite(obj, obj.docstring.value)
+            if obj.is_function:
+                _show_values(obj)
             stack.extend(member for member in obj.members.values() if not member.is_alias)
+
+
+def _show_values(function: griffe.Function) -> None:
+    """Each default of ``function`` that names something (``CE_DEFAULTS["samples"]``,
+    ``_core.GRAPH_PRUNE``) replaced by the value it has, where that is a plain literal."""
+    module: Any = None
+    for parameter in function.parameters:
+        if parameter.default is None or not isinstance(parameter.default, griffe.Expr):
+            continue
+        expression = str(parameter.default)
+        try:
+            ast.literal_eval(expression)
+            continue  # a literal already (-1.0, (1, 2)): shown as written
+        except (ValueError, SyntaxError):
+            pass
+        if module is None:
+            try:
+                module = importlib.import_module(function.module.path)
+            except ImportError as e:
+                raise ImportError(
+                    f"the API reference shows the engine's defaults ({function.path}: {parameter.name}={expression}), "
+                    f"read from the installed package: pip install -e . ({e})"
+                ) from e
+        try:
+            value = eval(expression, vars(module))  # noqa: S307 - the package's own source, as Python runs it
+        except (NameError, AttributeError):
+            continue  # a name of a scope other than the module's: shown as written
+        if value is None or isinstance(value, (bool, int, float, str)):
+            parameter.default = repr(value)

@@ -65,6 +65,22 @@ def test_the_help_is_one_list_of_every_command_each_on_a_line(tmp_path: Path) ->
     assert helped.returncode == 0 and "usage: cehmm plot" in helped.stdout, helped.stderr
 
 
+def test_the_packages_commands_call_themselves_by_the_name_they_were_run_by(tmp_path: Path) -> None:
+    # `cehmm benchmarks --help` printed `usage: python -m cehmm.benchmarks`.
+    for command in cli.PYTHON_COMMANDS:
+        helped = cehmm(command, "--help", cwd=tmp_path)
+        assert helped.returncode == 0 and helped.stdout.startswith(f"usage: cehmm {command} "), helped.stdout[:200]
+    refused = cehmm("benchmarks", "--check", cwd=tmp_path)
+    assert refused.returncode != 0 and refused.stderr.startswith(
+        "cehmm benchmarks: error: --check goes with --report-only"
+    ), refused.stderr
+    refused = cehmm("benchmarks", "--controllers", "nonsense", "--data-dir", str(TIGER.parent), cwd=tmp_path)
+    assert refused.stderr.startswith("cehmm benchmarks: error: unknown controller(s) ['nonsense']"), refused.stderr
+    # Run as a module, it is that module.
+    helped = subprocess.run([sys.executable, "-m", "cehmm.benchmarks", "--help"], capture_output=True, text=True)
+    assert helped.stdout.startswith("usage: python -m cehmm.benchmarks "), helped.stdout[:200]
+
+
 def test_sizes_given_apart_and_episodes_of_an_exact_value_are_refused_by_name(tmp_path: Path) -> None:
     spaced = cehmm("optimize", "--levels", "16", "16", cwd=tmp_path)
     assert spaced.returncode == 2, spaced.stderr

@@ -225,3 +225,40 @@ def test_an_environments_reward_and_flags_are_checked_as_any_worlds() -> None:
         policy.evaluate(cehmm.PythonWorld(Says(0.0, "False"), horizon=5), episodes=2)
     with pytest.raises(cehmm.WorldError, match="reward"):
         policy.evaluate(cehmm.PythonWorld(Says(1 + 0j, False), horizon=5), episodes=2)
+
+
+class Walk(gym.Env):
+    """A corridor of six cells and no ``max_episode_steps``: step right (1) or left (0) from
+    cell 0; reaching cell 5 ends the episode with reward 1."""
+
+    observation_space, action_space = spaces.Discrete(6), spaces.Discrete(2)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[int, dict]:
+        super().reset(seed=seed)
+        self.cell = 0
+        return self.cell, {}
+
+    def step(self, action: object) -> tuple[int, float, bool, bool, dict]:
+        self.cell = max(0, self.cell + (1 if action == 1 else -1))
+        return self.cell, float(self.cell == 5), self.cell == 5, False, {}
+
+
+def test_an_environment_without_a_horizon_is_told_the_one_it_gets_and_how_to_choose() -> None:
+    # It got horizon=1000 silently: on a six-step corridor, a minute's search for less than the
+    # optimum that horizon=12 finds in seconds.
+    with pytest.warns(cehmm.gym_adapt.HorizonWarning) as warned:
+        world = cehmm.PythonWorld(Walk())
+    (warning,) = warned
+    assert world.horizon == cehmm.gym_adapt.DEFAULT_HORIZON == 1000
+    assert issubclass(warning.category, UserWarning)
+    message = str(warning.message)
+    assert "test_gym_in.Walk" in message and "no max_episode_steps" in message, message
+    assert "cut at 1000 steps" in message and "horizon=" in message, message
+    assert warning.filename == __file__  # the line that made the world, not the package's
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cehmm.PythonWorld(Walk(), horizon=12).horizon == 12
+        assert cehmm.PythonWorld(gym.make("FrozenLake-v1")).horizon == 100
+    with pytest.warns(cehmm.gym_adapt.HorizonWarning, match="cut at 1000 steps"):
+        policy = cehmm.Policy.uniform(Walk(), [1])
+    assert policy.world["horizon"] == 1000

@@ -4,15 +4,18 @@ DOT text, the animation's frames, and what ``cehmm plot`` draws of a policy file
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
+from worlds import Corridor
 
 import cehmm
-from cehmm import plots
+from cehmm import cli, plots
 
 pytest.importorskip("matplotlib")
 
@@ -273,3 +276,85 @@ def test_cehmm_plot_titles_a_policy_by_its_file_and_its_world(controller, tracki
         figure = cli._figure_of(argparse.Namespace(files=[path], what=what, **options))
         shown = figure.axes[0].get_title() if path == tiger and what is None else figure.get_suptitle()
         assert shown.startswith(title) and "case ?" not in shown, shown
+
+
+def ticks(axis) -> list[str]:
+    """An axis's tick labels, as shown."""
+    return [label.get_text() for label in axis.get_ticklabels()]
+
+
+class Dial(gym.Env):
+    """A Gymnasium environment with values of its own: observations 100..115, actions pairs of
+    bits; episodes of 5 steps show 100, 101, ..., 104."""
+
+    observation_space = gym.spaces.Discrete(16, start=100)
+    action_space = gym.spaces.MultiDiscrete([2, 2])
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[int, dict]:
+        super().reset(seed=seed)
+        self.t = 0
+        return 100, {}
+
+    def step(self, action: object) -> tuple[int, float, bool, bool, dict]:
+        self.t += 1
+        return 100 + self.t, float(action[0]), False, self.t >= 5, {}
+
+
+PAIRS = ["(0, 0)", "(0, 1)", "(1, 0)", "(1, 1)"]
+
+
+def test_a_policy_of_a_gymnasium_environment_or_a_python_world_is_drawn_from_its_file(tmp_path: Path) -> None:
+    # Refused ("pass the world itself"), which the command line cannot do: drawn from what the
+    # file holds, its decisions and observations named by the spaces it records.
+    from cehmm.spaces import Bins, Grid
+
+    pendulum = cehmm.PythonWorld("Pendulum-v1", observations=Bins(2, fit="bounds"), actions=Grid(3))
+    worlds = {"pendulum": pendulum, "dial": cehmm.PythonWorld(Dial(), horizon=5), "corridor": Corridor()}
+    for name, world in worlds.items():
+        cehmm.Policy.random(world, [2], seed=0).save(tmp_path / f"{name}.json")
+    law = plots.decision_law(cehmm.Policy.load(tmp_path / "pendulum.json"))
+    assert ticks(law.axes[0].xaxis) == ["-2", "0", "2"]  # the torques of its grid
+    assert ticks(law.axes[1].yaxis) == [str(k) for k in range(8)]  # cells of bins: no value, their index
+    law = plots.decision_law(cehmm.Policy.load(tmp_path / "dial.json"))
+    assert ticks(law.axes[0].xaxis) == PAIRS
+    assert ticks(law.axes[1].yaxis) == [str(100 + k) for k in range(16)]
+    law = plots.decision_law(cehmm.Policy.load(tmp_path / "corridor.json"))
+    assert ticks(law.axes[0].xaxis) == ["0", "1"] and ticks(law.axes[1].yaxis) == [str(k) for k in range(6)]
+    for name, title in [("pendulum", "Pendulum-v1"), ("dial", "Dial"), ("corridor", "Corridor")]:
+        done = subprocess.run(
+            [sys.executable, "-m", "cehmm.cli", "plot", f"{name}.json", "--out", f"{name}.png"],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+        )
+        assert done.returncode == 0, done.stderr
+        assert (tmp_path / f"{name}.png").stat().st_size > 1000
+        path = str(tmp_path / f"{name}.json")
+        options = argparse.Namespace(files=[path], what=None, x="iteration", prune=0.001, episodes=5)
+        assert cli._figure_of(options).get_suptitle() == f"{path}: a policy of {title} (levels [2])"
+    # Its memory's use needs its episodes, which only Python can run: refused, saying how.
+    refused = subprocess.run(
+        [sys.executable, "-m", "cehmm.cli", "plot", "dial.json", "--what", "memory", "--out", "m.png"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert refused.returncode == 2, refused.stderr
+    assert "a policy of Dial, a world written in Python" in refused.stderr, refused.stderr
+    assert "cehmm.plots.memory_use(policy, world)" in refused.stderr, refused.stderr
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"Dial, written in Python \(a policy graph needs a tabular"):
+        plots.policy_graph(cehmm.Policy.load(tmp_path / "dial.json"))
+
+
+def test_decisions_and_observations_are_named_on_the_figures_where_the_world_names_them(controller, tiger) -> None:
+    # They were bare indices: an episode of a Gymnasium environment, and the observations of
+    # the memory's visits.
+    dial = cehmm.PythonWorld(Dial(), horizon=5)
+    episode = cehmm.Policy.random(dial, [2], seed=1).rollout(dial)
+    observations, decisions = episode.plot(world=dial).axes[:2]
+    assert ticks(decisions.yaxis) == PAIRS
+    # More names than fit (16): those the episode shows, 100 to 104.
+    assert ticks(observations.yaxis) == [str(100 + k) for k in range(5)]
+    assert list(observations.get_yticks()) == list(range(5))
+    visits = plots.memory_heatmap(controller.policy, tiger, episodes=5)
+    assert ticks(visits.axes[0].xaxis) == ["tiger-left", "tiger-right", "start"]

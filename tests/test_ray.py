@@ -1,5 +1,6 @@
-"""The Ray backend (issues 21 and 29): the same tables as the local backend, on a local 2-CPU Ray
-without a dashboard, on loopback or behind token authentication; third-party environments that
+"""The Ray backend (issues 21, 29 and 45): the same tables as the local backend, on a local 2-CPU
+Ray without a dashboard, on loopback only, its files in the suite's own temporary directory
+(tests/conftest.py), the machine's own Ray directory left as it was; third-party environments that
 keep numpy state (POPGym's, Gymnasium's CartPole) give the local result; a worker killed mid-run
 changes nothing, a world's exception on a worker surfaces as itself (without Ray's colour
 codes), Ctrl-C leaves no task running; an unreachable cluster, a task no node can run and a
@@ -10,6 +11,7 @@ versions of the ``ray`` extra)."""
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import os
 import pickle
@@ -60,24 +62,72 @@ def cluster():
     ray.shutdown()
 
 
-def test_the_test_cluster_is_on_loopback_or_behind_token_authentication_without_a_dashboard(cluster):
-    # Ray < 2.54 binds where it is told (loopback); 2.59 and later bind every interface and
-    # refuse a client without the cluster's token; the `ray` extra leaves out the Rays between,
-    # which bind every interface with no authentication (pyproject.toml).
+def test_the_test_cluster_listens_on_loopback_only_without_a_dashboard(cluster):
+    # Ray 2.54 and later bind every interface, whatever _node_ip_address says, unless told that
+    # this machine is the whole cluster (RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0: tests/conftest.py).
     (node,) = ray.nodes()
-    gcs = cluster.address_info["gcs_address"]
+    assert node["NodeManagerAddress"] == "127.0.0.1"
+    assert cluster.address_info["gcs_address"].startswith("127.0.0.1:")
     assert not cluster.dashboard_url
-    if node["NodeManagerAddress"] == "127.0.0.1":
-        assert gcs.startswith("127.0.0.1:")
-        return
-    import grpc
-    from ray.core.generated import gcs_service_pb2, gcs_service_pb2_grpc
+    _on_loopback_only(os.getpid(), cluster.address_info["gcs_address"])
 
-    with grpc.insecure_channel(gcs) as channel:
-        stub = gcs_service_pb2_grpc.NodeInfoGcsServiceStub(channel)
-        with pytest.raises(grpc.RpcError) as refused:
-            stub.GetClusterId(gcs_service_pb2.GetClusterIdRequest(), timeout=10)
-    assert refused.value.code() == grpc.StatusCode.UNAUTHENTICATED, refused.value
+
+def _on_loopback_only(root: int, gcs: str) -> None:
+    """Every TCP socket that process ``root`` and its descendants listen on is on loopback (the
+    GCS at ``gcs`` among them), as Linux's ``/proc`` shows them."""
+    if not Path("/proc/net/tcp").exists():
+        return  # pragma: no cover - the suite runs on Linux
+    listening = _listening(root)
+    host, port = gcs.rsplit(":", 1)
+    assert any(p == int(port) for _, p in listening), (gcs, listening)
+    wide = sorted(f"{a}:{p}" for a, p in listening if not a.is_loopback)
+    assert not wide, f"listening beyond loopback: {wide}"
+
+
+def _listening(root: int) -> set[tuple[ipaddress.IPv4Address | ipaddress.IPv6Address, int]]:
+    """The (address, port) of every listening TCP socket of process ``root`` and its descendants
+    (IPv4 addresses mapped into IPv6 read as IPv4)."""
+    proc = Path("/proc")
+    children: dict[int, list[int]] = {}
+    for stat in proc.glob("[0-9]*/stat"):
+        try:
+            parent = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # a process that has just ended
+        children.setdefault(parent, []).append(int(stat.parent.name))
+    inodes, pids = set(), [root]
+    while pids:
+        pid = pids.pop()
+        pids.extend(children.get(pid, []))
+        try:
+            links = [os.readlink(fd) for fd in (proc / str(pid) / "fd").iterdir()]
+        except OSError:
+            continue
+        inodes.update(link[len("socket:[") : -1] for link in links if link.startswith("socket:["))
+    found = set()
+    for table in ("tcp", "tcp6"):
+        for line in (proc / "net" / table).read_text().splitlines()[1:]:
+            fields = line.split()
+            if fields[3] == "0A" and fields[9] in inodes:  # TCP_LISTEN
+                address, port = fields[1].split(":")
+                raw = bytes.fromhex(address)  # 32-bit words in the host's (little-endian) order
+                ip = ipaddress.ip_address(b"".join(raw[k : k + 4][::-1] for k in range(0, len(raw), 4)))
+                mapped = getattr(ip, "ipv4_mapped", None)
+                found.add((mapped or ip, int(port, 16)))
+    return found
+
+
+def _address_file(temp_dir: str) -> Path:
+    """Where Ray records the cluster that ``ray start`` started (``address="auto"`` reads it)."""
+    return Path(temp_dir) / "ray" / "ray_current_cluster"
+
+
+def _state(path: Path) -> tuple[bytes, int] | None:
+    """A file's content and modification time (``None`` where there is none)."""
+    try:
+        return path.read_bytes(), path.stat().st_mtime_ns
+    except FileNotFoundError:
+        return None
 
 
 def test_the_ray_tested_is_one_the_ray_extra_takes():
@@ -266,11 +316,16 @@ def _free_port() -> int:
 
 def test_a_job_on_an_existing_cluster_is_the_local_one():
     # A cluster started apart (`ray start --head`, as on a cluster's head node), joined by a
-    # driver of its own with address=.
+    # driver of its own with address=. It listened on the machine's network address and left
+    # /tmp/ray/ray_current_cluster behind, after which every ray.init(num_cpus=...) on the machine
+    # failed: it is on loopback only, its state in the suite's temporary directory (RAY_TMPDIR:
+    # tests/conftest.py), the machine's own left as it was.
+    machine = _address_file(os.environ.get("TMPDIR", "/tmp"))
+    before = _state(machine)
     port = _free_port()
     head = subprocess.Popen(
         [sys.executable, "-m", "ray.scripts.scripts", "start", "--head", "--block", f"--port={port}",
-         "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats",
+         "--node-ip-address=127.0.0.1", "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats",
          f"--ray-client-server-port={_free_port()}"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
     )  # fmt: skip
@@ -287,9 +342,41 @@ def test_a_job_on_an_existing_cluster_is_the_local_one():
         assert joined.returncode == 0, joined.stderr[-2000:]
         local = cehmm.optimize(cehmm.TargetTracking(case=1), progress=False, **settings)
         assert joined.stdout.strip() == local.policy.to_json()
+        _on_loopback_only(head.pid, f"127.0.0.1:{port}")
+        assert _address_file(os.environ["RAY_TMPDIR"]).read_text().strip() == f"127.0.0.1:{port}"
     finally:
         os.killpg(head.pid, signal.SIGTERM)
         head.wait(timeout=60)
+    assert _state(machine) == before, f"{machine} changed"
+
+
+SUITE = """
+import os, ray._private.utils
+def test_ray_writes_here():
+    path = ray._private.utils.get_ray_address_file(None)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        f.write("127.0.0.1:1")
+    print("RAY_ADDRESS_FILE", path)
+"""
+
+
+def test_the_suite_keeps_rays_state_in_a_directory_of_its_own_and_removes_it(tmp_path: Path):
+    # A session of this suite's conftest.py: Ray's files go to a temporary directory of its own,
+    # gone when the session ends; the machine's own Ray directory is left as it was.
+    shutil.copy(Path(__file__).with_name("conftest.py"), tmp_path / "conftest.py")
+    (tmp_path / "test_suite.py").write_text(SUITE)
+    machine = _address_file(os.environ.get("TMPDIR", "/tmp"))
+    before = _state(machine)
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("RAY_")}
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-s", "-p", "no:cacheprovider", str(tmp_path / "test_suite.py")],
+        cwd=tmp_path, env=environment, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    (written,) = [Path(line.split()[1]) for line in done.stdout.splitlines() if line.startswith("RAY_ADDRESS_FILE ")]
+    assert written != machine and not written.exists() and not written.parent.parent.exists(), written
+    assert _state(machine) == before, f"{machine} changed"
 
 
 # Short runs of environments written by others: a POPGym task (its cards kept in numpy arrays it

@@ -73,12 +73,12 @@ SHORTER: list[tuple[str, str, str]] = [
 #: Commands not run here: why, and where they are run instead.
 NOT_RUN: dict[str, str] = {
     "python3 -m pip install -e '.[test]' && cargo test && python3 -m pytest": "the test suite itself: .ci/run runs it",
-    "python3 -m pip install '.[plot]'": "an install (matplotlib: in '.[test]', which .ci/run installs)",
-    "python3 -m pip install '.[gym]'": "an install (gymnasium: in '.[test]', which .ci/run installs)",
-    "python3 -m pip install '.[ray]'": "an install (ray: in '.[test]', which .ci/run installs)",
+    "python3 -m pip install -e '.[plot]'": "an install (matplotlib: in '.[test]', which .ci/run installs)",
+    "python3 -m pip install -e '.[gym]'": "an install (gymnasium: in '.[test]', which .ci/run installs)",
+    "python3 -m pip install -e '.[ray]'": "an install (ray: in '.[test]', which .ci/run installs)",
     "python3 -m pip install sb3-contrib": "an install of a heavy rival, kept out of CI (docs/memory-benchmark.md)",
     "cargo install cargo-mutants && cargo mutants": "70 minutes; .ci/run runs cargo mutants on two model files",
-    "python3 -m pip install '.[docs]' && python3 -m mkdocs serve": "an install, then a server that runs until stopped",
+    "python3 -m pip install -e '.[docs]' && python3 -m mkdocs serve": "an install, then a server running until stopped",
     "python3 -m mkdocs build --strict": "mkdocs is the docs extra's, not the test extra's: .ci/run builds the site",
 }
 
@@ -238,6 +238,30 @@ def test_the_readme_installs_only_extras_the_package_has() -> None:
     extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
     named = re.findall(r"'\.\[(\w+)\]'", README.read_text())
     assert named and set(named) <= set(extras), set(named) - set(extras)
+
+
+def test_the_readme_installs_extras_as_test_it_installs_the_package() -> None:
+    # `pip install '.[plot]'` after "Test it" (`pip install -e '.[test]'`) silently replaced the
+    # editable install with a copy: edits no longer ran.
+    installs = re.findall(r"pip install (?:(-e) )?'\.\[(\w+)\]'", README.read_text())
+    assert installs and all(editable for editable, _ in installs), installs
+
+
+def test_the_readmes_command_list_is_every_command() -> None:
+    # It left out `run`.
+    helped = subprocess.run([sys.executable, "-m", "cehmm.cli", "--help"], capture_output=True, text=True)
+    listed = helped.stdout.split("Commands:\n")[1].split("\n\n")[0].splitlines()
+    commands = {line.split()[0] for line in listed} - {"help"}
+    text = " ".join(README.read_text().split())
+    named = text.split("The `cehmm` command is the whole command line (")[1].split("`cehmm --help`")[0]
+    assert set(re.findall(r"`([a-z-]+)`", named)) == commands
+
+
+def test_the_readme_says_which_horizon_an_environment_without_one_gets() -> None:
+    from cehmm.gym_adapt import DEFAULT_HORIZON
+
+    text = " ".join(README.read_text().split())
+    assert f"cut at {DEFAULT_HORIZON} steps" in text and "`cehmm.gym_adapt.HorizonWarning`" in text
 
 
 def test_the_readmes_test_command_is_what_ci_runs() -> None:

@@ -35,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if command == "benchmarks":
         from . import benchmarks
 
-        return benchmarks.main(rest)
+        return benchmarks.main(rest, prog="cehmm benchmarks")
     # The engine writes to the process's own stdout and stderr: what Python buffered goes first.
     # Without a command, it prints its help (every command, the package's too) and exits 2.
     sys.stdout.flush()
@@ -56,7 +56,8 @@ def plot(args: Sequence[str]) -> int:
         prog="cehmm plot",
         description=PYTHON_COMMANDS["plot"] + ": cehmm plot FILE... --out PNG",
         epilog="A .jsonl or .csv file is a history (several share one axes); a .json file a policy (one). "
-        "A policy's default figure is its policy graph on a tabular world, else its decision law.",
+        "A policy's default figure is its policy graph on a tabular world, else its decision law (of any world: "
+        "one written in Python or a Gymnasium environment named by the spaces its file records).",
     )
     parser.add_argument("files", nargs="+", metavar="FILE", help="a history (.jsonl, .csv) or a policy file (.json)")
     parser.add_argument("--out", required=True, help="the figure (PNG, SVG, PDF: by its extension)")
@@ -64,7 +65,8 @@ def plot(args: Sequence[str]) -> int:
     parser.add_argument(
         "--what",
         choices=sorted(POLICY_FIGURES),
-        help="a policy: its policy graph (tabular worlds), decision law, or memory use (rollouts of its world)",
+        help="a policy: its policy graph (tabular worlds), decision law, or memory use (rollouts of its world, "
+        "one of the engine's)",
     )
     parser.add_argument("--prune", type=float, default=_core.GRAPH_PRUNE, help="--what graph: laws left out")
     parser.add_argument("--episodes", type=int, default=200, help="--what memory: rollouts")

@@ -3,7 +3,8 @@
 Each space is encoded as indices by :mod:`cehmm.spaces` (finite spaces flattened, large ones
 hashed, ``Box`` observations cut into bins, ``Box`` actions a grid of values), the encodings
 recorded in the world's description (``"spaces"``) and so in policy files. An environment that
-names no horizon (no ``max_episode_steps``, no ``horizon``) has :data:`DEFAULT_HORIZON`.
+names no horizon (no ``max_episode_steps``, no ``horizon``) has :data:`DEFAULT_HORIZON`, and a
+:class:`HorizonWarning` says so.
 
 An environment steps one episode at a time (the episode protocol); a vector environment steps
 ``num_envs`` episodes at once (the batched protocol), its automatic resets ignored (the engine
@@ -14,6 +15,9 @@ rewards and flags are passed on as given, for the engine to check as any world's
 
 from __future__ import annotations
 
+import os
+import sys
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -22,10 +26,61 @@ import numpy as np
 from .spaces import Encoding, Flat, encoding
 from .spaces import gymnasium as _gymnasium
 
-__all__ = ["DEFAULT_HORIZON", "EnvEpisodes", "VectorBatch", "adapt", "flat", "make_env"]
+__all__ = ["DEFAULT_HORIZON", "EnvEpisodes", "HorizonWarning", "VectorBatch", "adapt", "flat", "make_env"]
 
-#: Most steps of an episode of an environment that names none.
+#: Most steps of an episode of an environment that names none (:class:`HorizonWarning`).
 DEFAULT_HORIZON = 1000
+
+
+class HorizonWarning(UserWarning):
+    """An environment that names no horizon got :data:`DEFAULT_HORIZON`: its episodes are cut
+    there, which may be far more steps than a good episode takes (a long search for less), or
+    fewer. Told once per environment and line of code; ``horizon=`` chooses.
+
+    Example:
+        >>> import warnings
+        >>> from gymnasium.envs.toy_text import FrozenLakeEnv
+        >>> env = FrozenLakeEnv()  # made without gymnasium.make: no spec, no max_episode_steps
+        >>> with warnings.catch_warnings(record=True) as told:
+        ...     warnings.simplefilter("always")
+        ...     world = cehmm.PythonWorld(env)
+        >>> world.horizon, told[0].category.__name__
+        (1000, 'HorizonWarning')
+        >>> print(told[0].message)  # doctest: +ELLIPSIS
+        gymnasium.envs.toy_text.frozen_lake.FrozenLakeEnv names no horizon (no max_episode_steps): ...
+        >>> cehmm.PythonWorld(env, horizon=40).horizon  # chosen: nothing to tell
+        40
+    """
+
+
+def _horizon(env: Any, horizon: int | None) -> int:
+    """The horizon given, else the environment's ``max_episode_steps``, else
+    :data:`DEFAULT_HORIZON` with a :class:`HorizonWarning` (on the line of the caller's code)."""
+    if horizon is not None:
+        return int(horizon)
+    steps = getattr(getattr(env, "spec", None), "max_episode_steps", None)
+    if steps is not None:
+        return int(steps)
+    spec, unwrapped = getattr(env, "spec", None), getattr(env, "unwrapped", env)
+    label = getattr(spec, "id", None) or f"{type(unwrapped).__module__}.{type(unwrapped).__qualname__}"
+    warnings.warn(
+        f"{label} names no horizon (no max_episode_steps): its episodes are cut at {DEFAULT_HORIZON} steps "
+        f"(cehmm.gym_adapt.DEFAULT_HORIZON); pass horizon= to choose (about twice the steps a good episode takes: "
+        "a shorter horizon makes a faster search, one too short cuts the episodes a good policy needs)",
+        HorizonWarning,
+        stacklevel=_callers_level(),
+    )
+    return DEFAULT_HORIZON
+
+
+def _callers_level() -> int:
+    """The ``stacklevel`` of the innermost frame outside this package, seen from the function that
+    calls this one."""
+    package = os.path.join(os.path.dirname(__file__), "")
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def make_env(world: Any) -> Any:
@@ -69,8 +124,7 @@ class _Adapted:
         self, env: Any, observation_space: Any, action_space: Any, horizon: int | None, choices: dict[str, Any]
     ) -> None:
         self.env = env
-        steps = getattr(getattr(env, "spec", None), "max_episode_steps", None)
-        self.horizon = int(horizon if horizon is not None else steps if steps is not None else DEFAULT_HORIZON)
+        self.horizon = _horizon(env, horizon)
         self.actions: Encoding = encoding(action_space, "action", choices.get("actions"))
         self.observations: Encoding = encoding(
             observation_space,

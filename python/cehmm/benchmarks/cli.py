@@ -20,12 +20,14 @@ from .files import file_facts, find_files, parse_sarsop
 from .report import render_report
 from .run import run_jobs
 
+#: The command as its records write it (``cehmm benchmarks`` is the same; help and errors name
+#: the one that was run: ``main``'s ``prog``).
 PROG = "python -m cehmm.benchmarks"
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str = PROG) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog=PROG,
+        prog=prog,
         description="Learns controllers by CE on every .pomdp file of the data folder (each file × controller a "
         "job), evaluates each exactly and writes OUT/data/benchmarks.jsonl (rewritten by each run: one line per "
         "file and per finished job) and the report OUT/benchmarks.md, against SARSOP's bounds from SOURCES.md.",
@@ -70,8 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def select_controllers(names: Sequence[str] | None) -> dict[str, list[int]]:
-    """The controllers named (``"1 node"`` or ``"1 node,2 nodes"``; case-insensitive), in CONTROLLERS order."""
+def select_controllers(names: Sequence[str] | None, prog: str = PROG) -> dict[str, list[int]]:
+    """The controllers named (``"1 node"`` or ``"1 node,2 nodes"``; case-insensitive), in CONTROLLERS order
+    (``prog``: the command that names them, in errors)."""
     if not names:
         return dict(config.CONTROLLERS)
     known = {name.lower(): name for name in config.CONTROLLERS}
@@ -84,7 +87,7 @@ def select_controllers(names: Sequence[str] | None) -> dict[str, list[int]]:
     }
     unknown = sorted(wanted - set(known))
     if unknown:
-        raise SystemExit(f"{PROG}: error: unknown controller(s) {unknown}; known: {', '.join(config.CONTROLLERS)}")
+        raise SystemExit(f"{prog}: error: unknown controller(s) {unknown}; known: {', '.join(config.CONTROLLERS)}")
     return {name: levels for name, levels in config.CONTROLLERS.items() if name.lower() in wanted}
 
 
@@ -101,16 +104,16 @@ def _paths(out: Path) -> tuple[Path, Path]:
     return out / config.REPORT_NAME, out / "data" / config.JSONL_NAME
 
 
-def _report_only(args: argparse.Namespace) -> int:
+def _report_only(args: argparse.Namespace, prog: str) -> int:
     report, jsonl = _paths(args.out)
     records = read_records(jsonl)
     if not any(r.get("record") == "file" for r in records):
-        print(f"{PROG}: error: {jsonl} has no records; run without --report-only first", file=sys.stderr)
+        print(f"{prog}: error: {jsonl} has no records; run without --report-only first", file=sys.stderr)
         return 2
     text = render_report(records)
     if args.check:
         if (report.read_text() if report.exists() else None) != text:
-            print(f"{report} is not what {jsonl} gives: run {PROG} --report-only", file=sys.stderr)
+            print(f"{report} is not what {jsonl} gives: run {prog} --report-only", file=sys.stderr)
             return 1
         print(f"{report} is what {jsonl} gives")
         return 0
@@ -119,22 +122,23 @@ def _report_only(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
+    """Runs the benchmarks as ``prog ARGS...`` (``argv``; default: the process's); returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(argv)
+    args = build_parser(prog).parse_args(argv)
     if args.check and not args.report_only:
-        raise SystemExit(f"{PROG}: error: --check goes with --report-only")
+        raise SystemExit(f"{prog}: error: --check goes with --report-only")
     if args.report_only:
-        return _report_only(args)
+        return _report_only(args, prog)
     if args.quick:
         args.files = args.files or list(config.QUICK_FILES)
         args.controllers = args.controllers or list(config.QUICK_CONTROLLERS)
         args.time_limit = config.QUICK_TIME_LIMIT if args.time_limit is None else args.time_limit
     time_limit = config.TIME_LIMIT if args.time_limit is None else args.time_limit
-    controllers = select_controllers(args.controllers)
+    controllers = select_controllers(args.controllers, prog)
     files = find_files(args.data_dir, args.files)
     if not files:
-        print(f"{PROG}: error: no .pomdp file in {args.data_dir} matches {args.files}", file=sys.stderr)
+        print(f"{prog}: error: no .pomdp file in {args.data_dir} matches {args.files}", file=sys.stderr)
         return 2
     sources = args.data_dir / "SOURCES.md"
     sarsop = parse_sarsop(read_bytes(sources, MAX_TEXT_BYTES, "SOURCES.md").decode()) if sources.exists() else {}

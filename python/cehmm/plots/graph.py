@@ -4,6 +4,7 @@ labelled with their decisions, arrows are observations; no Graphviz needed (for 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -60,7 +61,13 @@ def policy_graph(policy: Policy, world: Any = None, prune: float = _core.GRAPH_P
     """
     from matplotlib.patches import FancyArrowPatch
 
-    graph = policy.graph(world, form="json", prune=prune)
+    described = world if world is not None else stored_world(policy)
+    if isinstance(described, Mapping):  # a world written in Python: never tabular
+        raise _core.InvalidArgumentError(
+            f"invalid world: {world_title(described)}, written in Python (a policy graph needs a tabular world, "
+            "e.g. cehmm.PomdpWorld; its decision law draws any policy: cehmm.plots.decision_law)"
+        )
+    graph = policy.graph(described, form="json", prune=prune)
     nodes = graph["nodes"]
     n = len(nodes)
     if n > MOST_NODES:
@@ -68,7 +75,6 @@ def policy_graph(policy: Policy, world: Any = None, prune: float = _core.GRAPH_P
             f"invalid policy: its graph has {n} nodes at prune={prune:g} (expected at most {MOST_NODES} to draw: "
             "a larger prune, or policy.most_likely())"
         )
-    described = world if world is not None else stored_world(policy)
     angle = np.pi / 2 - 2 * np.pi * np.arange(n) / max(n, 1)
     radius = 1.0 if n > 1 else 0.0
     at = np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)

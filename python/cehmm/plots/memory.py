@@ -4,10 +4,13 @@ the visits of (m₁, y) and (m₁, m₂), and the decision law per observation a
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import _core
+from ..world import world_title
 from ._figure import figure, names, stored_world
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -17,11 +20,17 @@ if TYPE_CHECKING:  # pragma: no cover
 
 
 def _rollouts(policy: Policy, world: Any, episodes: int, seed: int) -> list[Any]:
-    """Episodes ``0..episodes`` of ``policy.evaluate(world, seed=seed)``, recorded."""
+    """Episodes ``0..episodes`` of ``policy.evaluate(world, seed=seed)``, recorded (``world``:
+    default, the policy's stored world, made once)."""
     if episodes < 1:
-        from .. import _core
-
         raise _core.InvalidArgumentError(f"invalid episodes: {episodes} (expected at least 1)")
+    if world is None:
+        world = stored_world(policy)
+        if isinstance(world, Mapping):
+            raise _core.InvalidArgumentError(
+                f"invalid world: none given for a policy of {world_title(world)}, a world written in Python, whose "
+                "episodes run only in Python (expected the world, as in cehmm.plots.memory_use(policy, world))"
+            )
     return [policy.rollout(world, seed=seed, episode=k) for k in range(episodes)]
 
 
@@ -82,8 +91,9 @@ def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
     """The decision law as heat maps: ``h0``, the decision given the bottom memory ``m₁``, and
     the decision given the observation ``y`` and the memory above ``m₂`` (``Σ_m₁ h1[y, m₂, m₁]
     h0[m₁, d]``: with one level, a map ``y × d``; with more, the likeliest decision per
-    ``(y, m₂)``, shaded by its probability). Names come from the world where it has them
-    (default: the policy's stored world).
+    ``(y, m₂)``, shaded by its probability). Decisions and observations are named by the world
+    where it names them (default: the policy's stored world; for a world written in Python or a
+    Gymnasium environment, the spaces its file records), by index elsewhere.
 
     Example:
         >>> tiger = cehmm.PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=10)
@@ -93,6 +103,10 @@ def decision_law(policy: Policy, world: Any = None, title: str = "") -> Figure:
         ('decision given the observation y', ['tiger-left', 'tiger-right', 'start'])
         >>> [label.get_text() for label in law.get_xticklabels()]
         ['listen', 'open-left', 'open-right']
+        >>> pendulum = cehmm.PythonWorld("Pendulum-v1", actions=cehmm.spaces.Grid(3))  # torques -2, 0, 2
+        >>> fig = cehmm.plots.decision_law(cehmm.Policy.uniform(pendulum, [2]))  # the policy alone
+        >>> [label.get_text() for label in fig.axes[0].get_xticklabels()]
+        ['-2', '0', '2']
     """
     from matplotlib import colormaps as cm
     from matplotlib.colors import ListedColormap
@@ -218,6 +232,9 @@ def memory_heatmap(policy: Policy, world: Any = None, episodes: int = 1000, seed
         for axis, n in ((ax.xaxis, freq.shape[1]), (ax.yaxis, freq.shape[0])):
             step = max(1, math.ceil(n / 16))
             axis.set_ticks(range(0, n, step))
+        if key == "m1_y":
+            observations = names(world if world is not None else stored_world(policy), "observations", freq.shape[1])
+            ax.set_xticklabels(observations[:: max(1, math.ceil(freq.shape[1] / 16))], fontsize=7, rotation=60)
         ax.set_title(f"{name} ({episodes} episodes)", fontsize=9)
         ax.set_facecolor("0.95")
         fig.colorbar(image, ax=ax, shrink=0.85, label="frequency")

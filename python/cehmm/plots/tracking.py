@@ -4,6 +4,7 @@ of its observations, decisions and memory."""
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
@@ -314,9 +315,12 @@ def _timeline(ro: Any, world: Any, title: str) -> Figure:
         ax.step(t, values, where="mid", color="tab:blue", linewidth=1.0)
         ax.plot(t, values, ".", color="tab:blue", markersize=3)
         ax.set_ylabel(label, fontsize=8)
-        if ticks is not None and len(ticks) <= 12:
-            ax.set_yticks(range(len(ticks)))
-            ax.set_yticklabels(ticks, fontsize=7)
+        if ticks is not None:
+            # Every value by name where they fit, else those the episode shows (at most 12).
+            shown = list(range(len(ticks))) if len(ticks) <= 12 else sorted(set(values.tolist()))
+            shown = shown[:: max(1, math.ceil(len(shown) / 12))]
+            ax.set_yticks(shown)
+            ax.set_yticklabels([ticks[v] for v in shown], fontsize=7)
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("step t")
     of = world_title(world)
