@@ -139,54 +139,6 @@ impl Controller {
         Controller::moore(act, next)
     }
 
-    /// Refuses, before a search, controllers of up to `nodes` nodes (`mealy`: with Mealy
-    /// decisions) whose policy file ([`Controller::to_hhmm`]) may not fit: `[nodes, nodes]`, or
-    /// for a Mealy machine `[pairs, nodes]` with up to `nodes · min(Y, D)` pairs. It may not
-    /// have more table entries than a policy may, its file may not be larger than the engine
-    /// reads back ([`crate::policy::file::MAX_FILE_BYTES`], at 4 bytes an entry: `0.0,`), and
-    /// its tables and one copy of them (the result's and the best so far's, or a save's) must fit
-    /// in the memory available. `memory` names the memory whose nodes these are (`nodes 8`,
-    /// `registers 3 of register_size 4`, `memory "clock"`) and `option` the setting that sets
-    /// it, which the error names with what to change.
-    pub fn check_fits(
-        option: &str,
-        memory: &str,
-        nodes: usize,
-        mealy: bool,
-        n_obs: usize,
-        n_actions: usize,
-    ) -> Result<()> {
-        let pairs = if mealy { nodes.saturating_mul(n_obs.min(n_actions)) } else { nodes };
-        let size = if mealy {
-            format!(
-                "{memory} ({nodes} nodes) with Mealy decisions on {n_obs} observations and {n_actions} decisions: \
-                 its policy file may hold {pairs} (decision, next node) pairs"
-            )
-        } else {
-            format!("{memory} ({nodes} nodes) on {n_obs} observations and {n_actions} decisions")
-        };
-        let change = if mealy {
-            "fewer nodes or observations: cehmm.spaces.Hashed(k) or Bins; memory \"nodes\" for no registers; or \
-             Moore decisions"
-        } else {
-            "fewer nodes or observations: cehmm.spaces.Hashed(k) or Bins"
-        };
-        let refuse =
-            |why: String| crate::error::Error::invalid(option, format!("{size}, and {why} (expected {change})"));
-        let layout = Layout::new(n_obs, n_actions, &[pairs.max(1), nodes.max(1)]).map_err(|e| refuse(e.to_string()))?;
-        let file_bytes: u64 = layout.tables.iter().map(|t| (t.rows * (4 * t.cols + 2)) as u64).sum();
-        let most = crate::policy::file::MAX_FILE_BYTES;
-        if file_bytes > most {
-            return Err(refuse(format!(
-                "its {} table entries make a policy file of at least {file_bytes} bytes, more than the {most} a \
-                 policy file may have to be read back",
-                layout.len
-            )));
-        }
-        let what = format!("the policy of {size} ({} table entries) and one copy", layout.len);
-        crate::memory::check_memory(&what, 2 * layout.policy_bytes(), crate::memory::available_memory())
-    }
-
     /// The two-level one-hot HHMM of this controller (module docs).
     pub fn to_hhmm(&self, n_obs: usize, n_actions: usize) -> Result<Hhmm> {
         if self.is_mealy() {
@@ -293,19 +245,5 @@ mod tests {
         // Two nodes that swap on every observation and decide the node: pairs (0, 1), (1, 0).
         let swap = Controller::mealy(vec![0, 0, 1, 1], vec![1, 1, 0, 0], 2).to_hhmm(2, 2).unwrap();
         assert_eq!(swap.levels(), [2, 2]);
-        // Before a search: 64 Mealy nodes on 1024 observations and 104 decisions may need 6656
-        // pairs, 437 million entries: refused, naming the option; over 128 observations they fit.
-        let fits = |nodes, mealy, y, d| Controller::check_fits("nodes", &format!("nodes {nodes}"), nodes, mealy, y, d);
-        let e = fits(64, true, 1024, 104).unwrap_err().to_string();
-        assert!(e.contains("invalid nodes: nodes 64 (64 nodes) with Mealy decisions") && e.contains("6656"), "{e}");
-        fits(64, true, 128, 104).unwrap();
-        fits(64, false, 1024, 104).unwrap();
-        // 64 nodes on 2048 observations and 16 decisions: 1024 pairs, 134 million entries (a
-        // file of at least 537 MB, which would not be read back), refused; 1024 observations
-        // make a file of at least 269 MB, refused too; 512 fit.
-        let e = fits(64, true, 2048, 16).unwrap_err().to_string();
-        assert!(e.contains("more than the 268435456 a policy file may have"), "{e}");
-        assert!(fits(64, true, 1024, 16).is_err());
-        fits(64, true, 512, 16).unwrap();
     }
 }

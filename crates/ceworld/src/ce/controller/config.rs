@@ -407,35 +407,9 @@ impl ControllerConfig {
         RunMemory { staged: self.memoryless_patience > 0 && m.mealy, ..m }
     }
 
-    /// `check` of each memory the runs take (where no model start is kept), with the setting
-    /// that sizes it and how to name it: `nodes` (`nodes 8`), `registers` (`registers 3 of
-    /// register_size 4`), `memory` (`memory "clock"`).
-    pub fn check_memories(&self, check: impl Fn(&str, &str, RunMemory) -> Result<()>) -> Result<()> {
-        let runs = if self.memory == Memory::Alternate { 3 } else { 1 };
-        for m in (0..runs).map(|r| self.memory_of(r)) {
-            let (option, memory) = match (m.registers, m.template) {
-                (0, Template::Clock) => ("memory", format!("memory \"{}\"", Memory::Clock.as_str())),
-                (0, _) => ("nodes", format!("nodes {}", self.nodes)),
-                (r, _) => ("registers", format!("registers {r} of register_size {}", self.register_size)),
-            };
-            check(option, &memory, m)?;
-        }
-        Ok(())
-    }
-
     /// The nodes of a factored memory: `register_size^registers` (`None` past `usize`).
     fn register_nodes(&self) -> Option<usize> {
         u32::try_from(self.registers).ok().and_then(|r| self.register_size.checked_pow(r))
-    }
-
-    /// The most nodes of a run's memory (where no model start is kept).
-    pub fn most_nodes(&self) -> usize {
-        let runs = if self.memory == Memory::Alternate { 3 } else { 1 };
-        (0..runs)
-            .map(|r| self.memory_of(r))
-            .map(|m| m.nodes + if m.registers == 0 { self.growths } else { 0 })
-            .max()
-            .unwrap_or(0)
     }
 
     /// The stopping rules (model §8); the time limit covers every run together.

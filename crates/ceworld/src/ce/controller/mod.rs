@@ -10,11 +10,13 @@
 //! frequencies (smoothed by α), repeat. On sampled values the best so far is chosen on fixed
 //! selection episodes and the controller returned is valued on fresh ones.
 
+mod bounds;
 pub mod checkpoint;
 pub mod config;
 mod laws;
 mod memory;
 mod outcome;
+mod selection;
 mod stage;
 pub mod value;
 
@@ -22,23 +24,25 @@ use rayon::prelude::*;
 
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::{Observed, StopReason};
-use crate::control::{Flow, GRACE, Interrupt, thread_pool};
+use crate::control::{Flow, Interrupt, thread_pool};
 use crate::episodes::credit::StepCredit;
 use crate::episodes::{Episodes, Remote, Streams};
 use crate::error::{Error, Result};
+use crate::evaluate::closing_reserve;
 use crate::evaluate::mean;
-use crate::evaluate::{Evaluation, closing_reserve, closing_rewards};
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
 
+use bounds::check_policy_fits;
 pub use config::{
     ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
 };
 use laws::Laws;
 use memory::ALTERNATE_SHARES;
 pub use outcome::{ControllerIteration, ControllerOutcome};
+use selection::{Scores, kept_values};
+use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
-use value::{Scores, Seen};
 
 use crate::ce::resume::{Checkpointing, Saver};
 use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
@@ -187,40 +191,6 @@ pub fn optimize_controller_observed(
     Ok(outcome)
 }
 
-/// Refuses a search whose largest controller's policy may not fit (model §8): the model's
-/// start and its growths, or each memory the runs take ([`Controller::check_fits`]).
-fn check_policy_fits(start: Option<&Controller>, config: &ControllerConfig, y1: usize, n_actions: usize) -> Result<()> {
-    match start {
-        Some(s) => {
-            let (nodes, mealy) = (s.nodes() + config.growths, (0..3).any(|r| config.memory_of(r).mealy));
-            let memory = format!("the model's start and growths {}", config.growths);
-            Controller::check_fits("model_nodes", &memory, nodes, mealy, y1, n_actions)
-        }
-        None => config.check_memories(|option, memory, m| {
-            let nodes = m.nodes + if m.registers == 0 { config.growths } else { 0 };
-            Controller::check_fits(option, memory, nodes, m.mealy, y1, n_actions)
-        }),
-    }
-}
-
-/// The selection scores and the memoryless stage's bar a checkpoint kept: those of its run in
-/// progress, or of the last run over (none in a fresh search).
-fn kept_values(state: &checkpoint::ControllerCheckpoint) -> Result<(Scores, std::sync::OnceLock<(f64, f64)>)> {
-    let (scores, bar) = (Scores::default(), std::sync::OnceLock::new());
-    let saved = match (&state.run, state.finished.last()) {
-        (Some(run), _) => Some((&run.scores, run.bar)),
-        (None, Some(last)) => Some((&last.scores, last.bar)),
-        (None, None) => None,
-    };
-    if let Some((saved, known)) = saved {
-        scores.restore(saved)?;
-        if let Some(known) = known {
-            let _ = bar.set(known);
-        }
-    }
-    Ok((scores, bar))
-}
-
 /// Controllers valued at once on sampled values with `episodes` each, where a world runs
 /// `slice` episodes together: whole batches of about `GROUP_EPISODES` episodes.
 fn group_size(slice: usize, episodes: usize) -> usize {
@@ -339,76 +309,9 @@ impl Search<'_> {
         })
     }
 
-    /// Evaluates the outcome of a search on sampled values on fresh episodes (its value is
-    /// theirs: the controller was not chosen on them), within the `left` seconds of the time
-    /// limit; an interrupted search's for at most the interrupt's grace.
-    fn evaluate(&self, w: &dyn Episodes, outcome: &mut ControllerOutcome, left: Option<f64>) -> Result<()> {
-        let interrupted = outcome.stop == StopReason::Interrupted;
-        w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
-        let (policy, episodes, seed) = (&outcome.policy, self.config.eval_episodes, self.config.seed);
-        let (rewards, cut) =
-            self.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate, left))?;
-        if cut {
-            // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
-            outcome.stop = StopReason::Interrupted;
-        }
-        let evaluation = Evaluation::from_rewards(&rewards);
-        outcome.value = evaluation.mean;
-        outcome.evaluation = Some(evaluation);
-        Ok(())
-    }
-
-    /// The seconds kept for the final evaluation at the end of the time limit.
-    fn reserve(&self) -> f64 {
-        f64::from_bits(self.reserve.load(std::sync::atomic::Ordering::Relaxed))
-    }
-
     /// Counts `episodes` of the world run for the next record.
     fn ran(&self, episodes: usize) {
         self.episodes.fetch_add(episodes as u64, std::sync::atomic::Ordering::Relaxed);
-    }
-
-    /// The mean value of each of `controllers` on the selection episodes (shared by every
-    /// iteration and run: streams `(seed, Select, 0, k)`). A controller scored before is not run
-    /// again: its score depends on it alone.
-    fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
-        let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
-        let m = self.config.select_episodes;
-        let scores: Vec<Option<f64>> = controllers.iter().map(|c| self.scores.get(c)).collect();
-        let new: Vec<Controller> =
-            controllers.iter().zip(&scores).filter(|(_, s)| s.is_none()).map(|(c, _)| c.clone()).collect();
-        let mut values = vec![0.0; new.len() * m];
-        let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
-        self.pool.install(|| world.run_controllers(&new, streams, m, &mut values))?;
-        self.ran(values.len());
-        let mut fresh = new.iter().zip(values.chunks(m)).map(|(c, v)| {
-            let score = mean(v.iter().copied());
-            self.scores.keep(c, score);
-            score
-        });
-        Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
-    }
-
-    /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
-    /// controller on exact values; on sampled ones the best on the selection episodes of its best
-    /// `candidates` distinct controllers (`order`: best first).
-    fn candidate(&self, drawn: &[(f64, Controller)], order: &[usize]) -> Result<(f64, usize)> {
-        if let Values::Exact(_) | Values::ExactElsewhere(..) = self.values {
-            return Ok((drawn[order[0]].0, order[0]));
-        }
-        let mut few: Vec<usize> = Vec::new();
-        for &i in order {
-            if few.len() == self.config.candidates {
-                break;
-            }
-            if few.iter().all(|&j| drawn[j].1 != drawn[i].1) {
-                few.push(i);
-            }
-        }
-        let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
-        let scores = self.select_scores(&controllers)?;
-        let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
-        Ok((scores[b], few[b]))
     }
 
     /// An escape from a run whose patience ran out, if any is left: an entropy injection, else

@@ -1,0 +1,176 @@
+//! How a search on sampled values chooses and reports (model §8): each iteration's candidates
+//! scored on the fixed selection episodes (kept by their digest, [`Scores`], and by
+//! checkpoints), and the returned controller's evaluation on fresh episodes, inside the time
+//! limit.
+
+use super::checkpoint::ControllerCheckpoint;
+use super::outcome::ControllerOutcome;
+use super::{Search, Values};
+use crate::ce::stopping::StopReason;
+use crate::control::GRACE;
+use crate::episodes::{Episodes, Streams};
+use crate::error::Result;
+use crate::evaluate::{Evaluation, closing_rewards, mean};
+use crate::policy::controller::Controller;
+use crate::rng::Purpose;
+
+impl Search<'_> {
+    /// The mean value of each of `controllers` on the selection episodes (shared by every
+    /// iteration and run: streams `(seed, Select, 0, k)`). A controller scored before is not run
+    /// again: its score depends on it alone.
+    pub(super) fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
+        let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
+        let m = self.config.select_episodes;
+        let scores: Vec<Option<f64>> = controllers.iter().map(|c| self.scores.get(c)).collect();
+        let new: Vec<Controller> =
+            controllers.iter().zip(&scores).filter(|(_, s)| s.is_none()).map(|(c, _)| c.clone()).collect();
+        let mut values = vec![0.0; new.len() * m];
+        let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
+        self.pool.install(|| world.run_controllers(&new, streams, m, &mut values))?;
+        self.ran(values.len());
+        let mut fresh = new.iter().zip(values.chunks(m)).map(|(c, v)| {
+            let score = mean(v.iter().copied());
+            self.scores.keep(c, score);
+            score
+        });
+        Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
+    }
+
+    /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
+    /// controller on exact values; on sampled ones the best on the selection episodes of its best
+    /// `candidates` distinct controllers (`order`: best first).
+    pub(super) fn candidate(&self, drawn: &[(f64, Controller)], order: &[usize]) -> Result<(f64, usize)> {
+        if let Values::Exact(_) | Values::ExactElsewhere(..) = self.values {
+            return Ok((drawn[order[0]].0, order[0]));
+        }
+        let mut few: Vec<usize> = Vec::new();
+        for &i in order {
+            if few.len() == self.config.candidates {
+                break;
+            }
+            if few.iter().all(|&j| drawn[j].1 != drawn[i].1) {
+                few.push(i);
+            }
+        }
+        let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
+        let scores = self.select_scores(&controllers)?;
+        let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
+        Ok((scores[b], few[b]))
+    }
+
+    /// Evaluates the outcome of a search on sampled values on fresh episodes (its value is
+    /// theirs: the controller was not chosen on them), within the `left` seconds of the time
+    /// limit; an interrupted search's for at most the interrupt's grace.
+    pub(super) fn evaluate(&self, w: &dyn Episodes, outcome: &mut ControllerOutcome, left: Option<f64>) -> Result<()> {
+        let interrupted = outcome.stop == StopReason::Interrupted;
+        w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
+        let (policy, episodes, seed) = (&outcome.policy, self.config.eval_episodes, self.config.seed);
+        let (rewards, cut) =
+            self.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate, left))?;
+        if cut {
+            // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
+            outcome.stop = StopReason::Interrupted;
+        }
+        let evaluation = Evaluation::from_rewards(&rewards);
+        outcome.value = evaluation.mean;
+        outcome.evaluation = Some(evaluation);
+        Ok(())
+    }
+
+    /// The seconds kept for the final evaluation at the end of the time limit.
+    pub(super) fn reserve(&self) -> f64 {
+        f64::from_bits(self.reserve.load(std::sync::atomic::Ordering::Relaxed))
+    }
+}
+
+/// The selection scores and the memoryless stage's bar a checkpoint kept: those of its run in
+/// progress, or of the last run over (none in a fresh search).
+pub(super) fn kept_values(state: &ControllerCheckpoint) -> Result<(Scores, std::sync::OnceLock<(f64, f64)>)> {
+    let (scores, bar) = (Scores::default(), std::sync::OnceLock::new());
+    let saved = match (&state.run, state.finished.last()) {
+        (Some(run), _) => Some((&run.scores, run.bar)),
+        (None, Some(last)) => Some((&last.scores, last.bar)),
+        (None, None) => None,
+    };
+    if let Some((saved, known)) = saved {
+        scores.restore(saved)?;
+        if let Some(known) = known {
+            let _ = bar.set(known);
+        }
+    }
+    Ok((scores, bar))
+}
+
+/// The scores of the controllers a sampled search has met on its fixed selection episodes, by
+/// their digest, so that a controller drawn again is not run again, and a resumed search (its
+/// checkpoint holds them) runs the episodes the uninterrupted search runs, and records the same
+/// history: at most [`Scores::MOST`] are kept, the whole store cleared when full.
+#[derive(Default)]
+pub struct Scores {
+    values: std::sync::Mutex<std::collections::HashMap<[u8; 16], f64>>,
+}
+
+impl Scores {
+    /// The most scores kept (about 40 MB in memory, and in a checkpoint).
+    pub const MOST: usize = 1 << 20;
+
+    /// The score kept for `c`, if any.
+    pub fn get(&self, c: &Controller) -> Option<f64> {
+        self.lock().get(&digest(c)).copied()
+    }
+
+    /// Keeps `score` as the score of `c`.
+    pub fn keep(&self, c: &Controller, score: f64) {
+        let mut values = self.lock();
+        if values.len() >= Self::MOST {
+            values.clear();
+        }
+        values.insert(digest(c), score);
+    }
+
+    /// Every score kept, by the digest in hex, in the digests' order (as a checkpoint holds them).
+    pub fn saved(&self) -> Vec<(String, f64)> {
+        let mut all: Vec<(String, f64)> = self.lock().iter().map(|(d, &s)| (crate::files::hex(d), s)).collect();
+        all.sort_by(|a, b| a.0.cmp(&b.0));
+        all
+    }
+
+    /// The scores `saved` held ([`Scores::saved`]) in place of those kept; a digest that is not
+    /// 32 hex digits is refused, naming it.
+    pub fn restore(&self, saved: &[(String, f64)]) -> crate::error::Result<()> {
+        let mut values = std::collections::HashMap::with_capacity(saved.len());
+        for (hex, score) in saved {
+            let bytes = (hex.len() == 32 && hex.bytes().all(|b| b.is_ascii_hexdigit()))
+                .then(|| {
+                    (0..16).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16)).collect::<Result<Vec<u8>, _>>()
+                })
+                .and_then(std::result::Result::ok)
+                .and_then(|b| <[u8; 16]>::try_from(b).ok())
+                .ok_or_else(|| {
+                    crate::error::Error::format(format!("a selection score's digest {hex:?} (expected 32 hex digits)"))
+                })?;
+            values.insert(bytes, *score);
+        }
+        *self.lock() = values;
+        Ok(())
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, std::collections::HashMap<[u8; 16], f64>> {
+        self.values.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+/// The first 16 bytes of the SHA-256 of a controller's tables (their lengths and entries).
+fn digest(c: &Controller) -> [u8; 16] {
+    use sha2::{Digest, Sha256};
+    let mut h = Sha256::new();
+    for table in [&c.act, &c.on, &c.next] {
+        h.update((table.len() as u64).to_le_bytes());
+        for v in table {
+            h.update(v.to_le_bytes());
+        }
+    }
+    let mut out = [0u8; 16];
+    out.copy_from_slice(&h.finalize()[..16]);
+    out
+}
