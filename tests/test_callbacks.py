@@ -2,7 +2,10 @@
 run as a stopping rule does (the same tables, bit for bit, as ``max_iterations``; stop reason
 ``"callback"``; its checkpoint resumes), an exception in it propagates (the checkpoint still
 consistent), the built-ins of ``cehmm.callbacks`` do what they say, and ``tensorboard_log=``
-writes the history's scalars to an event file read back here."""
+writes the history's scalars to an event file read back here. Issue 45: ``SaveBest`` keeps the best
+of the whole call across restarts and never writes a name twice; a callback's files are held to
+the one rule of a run's outputs and refused before the first iteration when they cannot be
+written; a failing ``close()`` loses neither the result nor the callback's own error."""
 
 from __future__ import annotations
 
@@ -32,6 +35,7 @@ from cehmm.callbacks import (
 
 ROOT = Path(__file__).resolve().parents[1]
 TIGER = ROOT / "data" / "pomdp" / "tiger.95.POMDP"
+SHUTTLE = ROOT / "data" / "pomdp" / "shuttle.95.POMDP"
 #: A short case-1 optimisation (about a millisecond per iteration).
 CE = dict(levels=[4], samples=200, eval_episodes=200, seed=3, progress=False)
 #: A short exact controller search on tiger.
@@ -232,9 +236,10 @@ def test_save_best_writes_a_policy_file_that_loads(case1: cehmm.TargetTracking, 
     result = cehmm.optimize(case1, max_iterations=5, callback=[last, each], **CE)
     saved = cehmm.Policy.load(tmp_path / "best.json")
     assert same_tables(saved, result.policy), "the best so far at the end is the result's policy"
-    assert saved.provenance["policy"] == "best so far" and saved.world == case1.to_dict()
+    assert saved.provenance == result.policy.provenance and saved.world == case1.to_dict(), "the result's own"
     assert each.saved == [str(tmp_path / "best-1.json"), str(tmp_path / "best-3.json")]
-    assert cehmm.Policy.load(each.saved[0]).levels == [4]
+    series = cehmm.Policy.load(each.saved[0])
+    assert series.levels == [4] and series.provenance["policy"] == "best so far"
     tiger_best = SaveBest(tmp_path / "controller.json")
     found = cehmm.optimize_controller(
         cehmm.PomdpWorld.from_file(TIGER, horizon=100), max_iterations=3, callback=tiger_best, **CONTROLLER
@@ -279,6 +284,172 @@ def test_bad_callbacks_are_refused_by_name(case1: cehmm.TargetTracking, tmp_path
     assert StopOnNoImprovement(np.int64(2)).patience == 2
 
 
+# -- restarts: SaveBest keeps the best of the whole call (issue 45, item 1) ---------------------
+
+
+def test_save_best_holds_the_best_of_the_whole_call_and_names_never_collide(tmp_path: Path) -> None:
+    # Sampled values on a short horizon: the runs end apart, the last one below the first.
+    shuttle = cehmm.PomdpWorld.from_file(SHUTTLE, horizon=20)
+    best, each, per_run = (
+        SaveBest(tmp_path / "best.json"),
+        SaveBest(tmp_path / "best_{iteration}.json"),
+        SaveBest(tmp_path / "run{run}.json"),
+    )
+    saved_scores: list[float | None] = []
+    result = cehmm.optimize_controller(
+        shuttle,
+        value="sampled",
+        restarts=4,
+        seed=1,
+        progress=False,
+        callback=[best, each, per_run, lambda it: saved_scores.append(best.best_score)],
+    )
+    assert result.run_values[-1] < max(result.run_values), "the case: a later run ends worse"
+    assert same_tables(cehmm.Policy.load(tmp_path / "best.json"), result.policy), "the file holds the result"
+    scores = [s for s in saved_scores if s is not None]
+    assert scores == sorted(scores), "a worse run never writes over the file"
+    # {iteration} counts on across the runs (TensorBoard's step): one file per iteration.
+    iterations = len(saved_scores)
+    assert each.saved == [str(tmp_path / f"best_{k}.json") for k in range(iterations)]
+    assert per_run.saved[-1] == str(tmp_path / "run3.json") and len(set(per_run.saved)) == 4
+    assert sorted(os.listdir(tmp_path)) == sorted(
+        ["best.json", *(f"best_{k}.json" for k in range(iterations)), *(f"run{r}.json" for r in range(4))]
+    )
+
+
+def test_save_best_with_restarts_of_the_episode_ce(case1: cehmm.TargetTracking, tmp_path: Path) -> None:
+    best, each = SaveBest(tmp_path / "best.json"), SaveBest(tmp_path / "{run}-{iteration}.json", every=2)
+    result = cehmm.optimize(case1, restarts=3, max_iterations=3, callback=[best, each], **CE)
+    assert same_tables(cehmm.Policy.load(tmp_path / "best.json"), result.policy)
+    assert each.saved == [str(tmp_path / name) for name in ["0-1.json", "1-3.json", "1-5.json", "2-7.json"]]
+    board = TensorBoard(tmp_path)
+    records = [Iteration({"iteration": k, "run": r}) for r, k in [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0)]]
+    assert [board.step(it) for it in records] == [0, 1, 2, 3, 4]
+
+
+def test_save_best_refuses_a_placeholder_in_its_folder(tmp_path: Path) -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid path: .*run\{run\}.*\(expected"):
+        SaveBest(tmp_path / "run{run}" / "best.json")
+
+
+# -- a callback's files: the one rule of outputs, before the first iteration (items 2 and 11) ----
+
+
+def optimisers(tmp_path: Path) -> dict[str, Any]:
+    """Each optimiser as ``f(callback=..., tensorboard_log=..., checkpoint=...)``, short."""
+    tiger = cehmm.PomdpWorld.from_file(TIGER, horizon=20)
+    return {
+        "optimize": lambda **kw: cehmm.optimize(cehmm.TargetTracking(case=1), max_iterations=3, **CE, **kw),
+        "optimize_controller": lambda **kw: cehmm.optimize_controller(tiger, max_iterations=2, **CONTROLLER, **kw),
+        "run": lambda **kw: cehmm.run("random-search", tiger, samples=20, max_iterations=2, progress=False, **kw),
+        "qlearning": lambda **kw: cehmm.QLearner.new(cehmm.TargetTracking(**SMALL_GRID)).train(
+            2**20, progress=False, **kw
+        ),
+    }
+
+
+@pytest.fixture
+def unwritable_folder(tmp_path: Path) -> Path:
+    """A folder this process cannot create files in (root writes anywhere but in /sys)."""
+    if os.geteuid() != 0:
+        folder = tmp_path / "read-only"
+        folder.mkdir()
+        folder.chmod(0o500)
+        return folder
+    if not os.path.isdir("/sys") or os.access("/sys", os.W_OK) and _creatable(Path("/sys")):
+        pytest.skip("no folder that root cannot write")
+    return Path("/sys")
+
+
+def _creatable(folder: Path) -> bool:
+    try:
+        (folder / ".cehmm-probe").open("x").close()
+    except OSError:
+        return False
+    (folder / ".cehmm-probe").unlink()
+    return True
+
+
+def test_a_callbacks_files_may_not_be_the_runs_checkpoint(tmp_path: Path) -> None:
+    pytest.importorskip("tensorboardX")
+    checkpoint = tmp_path / "run.ckpt"
+    for name, optimiser in optimisers(tmp_path).items():
+        for given in [
+            dict(callback=SaveBest(checkpoint)),
+            dict(callback=SaveBest(tmp_path / "r{iteration}.ckpt"), checkpoint=tmp_path / "r12.ckpt"),
+            dict(tensorboard_log=checkpoint),
+            dict(callback=[SaveBest(tmp_path / "a.json"), SaveBest(str(tmp_path / "a.json"))]),
+            dict(callback=SaveBest(tmp_path / "b.json"), tensorboard_log=tmp_path / "b.json"),
+        ]:
+            calls: list[Iteration] = []
+            callbacks = given.get("callback", [])
+            given = {"checkpoint": checkpoint, **given, "callback": [*np.atleast_1d(callbacks), calls.append]}
+            with pytest.raises(cehmm.InvalidArgumentError, match=r"is the file that .* names") as refused:
+                optimiser(**given)
+            assert not calls, (name, given)
+            assert "SaveBest" in str(refused.value) or "tensorboard_log" in str(refused.value), refused.value
+            assert os.listdir(tmp_path) == [], (name, given, os.listdir(tmp_path))
+
+
+def test_outputs_that_cannot_be_written_are_refused_before_the_first_iteration(
+    tmp_path: Path, unwritable_folder: Path
+) -> None:
+    pytest.importorskip("tensorboardX")
+    a_file, fifo = tmp_path / "a-file", tmp_path / "fifo"
+    a_file.write_text("x")
+    os.mkfifo(fifo)
+    boards = [a_file, fifo, "/dev/null", a_file / "under-a-file", unwritable_folder / "runs"]
+    policies = [tmp_path, fifo, "/dev/null", tmp_path / "missing" / "best.json", unwritable_folder / "best.json"]
+    policies += [tmp_path / "{iteration}" / "x.json", unwritable_folder / "best-{iteration}.json"]
+    for name, optimiser in optimisers(tmp_path).items():
+        for given in [dict(tensorboard_log=b) for b in boards] + [dict(callback=SaveBest(p)) for p in policies[:5]]:
+            calls: list[Iteration] = []
+            given = {**given, "callback": [given.get("callback", lambda it: None), calls.append]}
+            with pytest.raises((cehmm.InvalidArgumentError, OSError), match="tensorboard_log|SaveBest") as refused:
+                optimiser(**given)
+            assert not calls, (name, given, refused.value)
+            assert "invalid" in str(refused.value) and "expected" in str(refused.value), refused.value
+    for template in policies[5:]:
+        with pytest.raises((cehmm.InvalidArgumentError, OSError), match="SaveBest|path"):
+            cehmm.optimize(cehmm.TargetTracking(case=1), max_iterations=3, callback=SaveBest(template), **CE)
+    assert sorted(os.listdir(tmp_path)) == ["a-file", "fifo"]
+
+
+# -- close() and on_result() never lose a result nor an error (item 5) --------------------------
+
+
+class Failing(Callback):
+    """A callback whose call raises ``calling`` (when given) and whose close raises ``closing``."""
+
+    def __init__(self, calling: Exception | None, closing: Exception) -> None:
+        self.calling, self.closing, self.closed = calling, closing, 0
+
+    def __call__(self, iteration: Iteration) -> None:
+        if self.calling is not None:
+            raise self.calling
+
+    def close(self) -> None:
+        self.closed += 1
+        raise self.closing
+
+
+def test_a_close_that_raises_loses_neither_the_result_nor_the_callbacks_error(tmp_path: Path) -> None:
+    for name, optimiser in optimisers(tmp_path).items():
+        failing = Failing(None, OSError("cannot close"))
+        with pytest.warns(
+            RuntimeWarning, match=r"Failing raised OSError when closed: cannot close.*result is returned"
+        ):
+            result = optimiser(callback=failing)
+        assert result.stop_reason in ("max_iterations", "iterations"), name
+        raising, after = Failing(ValueError("inside"), OSError("cannot close")), Failing(None, KeyError("also"))
+        with pytest.raises(ValueError, match="inside") as raised:
+            optimiser(callback=[raising, after])
+        notes = getattr(raised.value, "__notes__", [])
+        assert any("cannot close" in n for n in notes) and any("also" in n for n in notes), (name, notes)
+        assert (raising.closed, after.closed) == (1, 1)
+        assert raised.value.__context__ is None or "cannot close" not in str(raised.value.__context__)
+
+
 # -- TensorBoard -------------------------------------------------------------------------------
 
 
@@ -305,7 +476,7 @@ def test_tensorboard_log_writes_the_history(case1: cehmm.TargetTracking, tmp_pat
     pytest.importorskip("tensorboardX")
     result = cehmm.optimize(case1, max_iterations=4, tensorboard_log=tmp_path / "ce", **CE)
     scalars = read_scalars(tmp_path / "ce")
-    assert set(scalars) == {"mean", "best", "elite_threshold", "elite_mean", "seconds", "successful", "score"}
+    assert set(scalars) == {"mean", "best", "elite_threshold", "elite_mean", "seconds", "successful", "score", "run"}
     for tag in ["mean", "best", "elite_threshold", "elite_mean", "seconds", "successful"]:
         steps, values = zip(*scalars[tag])
         assert list(steps) == list(result.history["iteration"])

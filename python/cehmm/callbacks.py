@@ -6,10 +6,28 @@ returning ``False`` stops the run as a stopping rule does: its ``stop_reason`` i
 at any stop, continues the run when resumed. ``None`` or ``True`` goes on. An exception the
 callback raises stops the run (its checkpoint saved, as on Ctrl-C) and propagates.
 
-A callback is any callable taking an :class:`Iteration`, a :class:`Callback` (whose
-:meth:`~Callback.close` is called once the run has ended) or a list of them
+A callback is any callable taking an :class:`Iteration`, a :class:`Callback` or a list of them
 (:class:`CallbackList`). The built-ins: :class:`StopOnNoImprovement`, :class:`SaveBest`,
 :class:`EvalOnEnv` and :class:`TensorBoard` (which ``tensorboard_log=DIR`` adds).
+
+A :class:`Callback` also declares the files it writes (:meth:`~Callback.outputs`): before the
+first iteration, they are held to the one rule of a run's outputs with the run's own checkpoint
+(no file is another's, links followed: ``ceworld::files::check_distinct``) and each must be
+writable (a regular file or a new name in a folder that can be written; a folder that exists or
+can be made), so that a bad path is refused at once, not after the first iteration. Once the
+optimiser has its result, every :class:`Callback` is given it (:meth:`~Callback.on_result`:
+:class:`SaveBest` writes the result's policy), then closed (:meth:`~Callback.close`), however the
+run ended.
+
+What a callback raises after the run has its result (in :meth:`~Callback.on_result` or
+:meth:`~Callback.close`) never costs the result: the optimiser returns it and warns
+(``RuntimeWarning``, naming the callback and the error). When the run raised (a callback's own
+exception, a ``KeyboardInterrupt`` before the first iteration), that exception propagates
+unchanged and a ``close()`` that fails too is added to it as a note (``__notes__``).
+
+A signal a callback sends to its own process is seen by the run before its next iteration, as
+one from outside: ``SIGINT`` returns the result so far, marked interrupted; ``SIGTERM``, with a
+checkpoint, saves it and ends the process as SIGTERM asks.
 
 Example:
     >>> import cehmm
@@ -24,9 +42,8 @@ from __future__ import annotations
 
 import operator
 import os
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
-from typing import Any, Callable, Optional, Union
+from collections.abc import Sequence
+from typing import Any, Callable, NamedTuple, Optional, Union
 
 import numpy as np
 
@@ -39,6 +56,7 @@ __all__ = [
     "CallbackList",
     "EvalOnEnv",
     "Iteration",
+    "Output",
     "SaveBest",
     "StopOnNoImprovement",
     "TensorBoard",
@@ -48,7 +66,8 @@ __all__ = [
 class Iteration(dict[str, Any]):
     """One iteration as a callback gets it: a dict of the history's scalars for that iteration
     (one row of the result's ``history``: ``iteration``, ``mean``, ``best``, ``elite_threshold``,
-    ``elite_mean``, ``seconds``, ``successful``, and the controller search's own fields) and
+    ``elite_mean``, ``seconds``, ``successful``, and the controller search's own fields),
+    ``run`` (the run's index among the restarts, from 0, kept across a resume) and
     ``score``, what the optimiser chooses its result by as of this iteration (the iteration's
     mean for :func:`cehmm.optimize` and :func:`cehmm.run`, the best value so far for
     :func:`cehmm.optimize_controller`); with the best policy so far on demand
@@ -66,7 +85,7 @@ class Iteration(dict[str, Any]):
         >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
         ...                         max_iterations=2, progress=False, callback=seen.append)
         >>> sorted(seen[0])
-        ['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'score', 'seconds', 'successful']
+        ['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'run', 'score', 'seconds', 'successful']
         >>> seen[1].best_policy().levels
         [4]
     """
@@ -87,12 +106,39 @@ class Iteration(dict[str, Any]):
 #: What ``callback=`` takes.
 CallbackLike = Union[Callable[[Iteration], Optional[bool]], Sequence[Callable[[Iteration], Optional[bool]]], None]
 
+#: The placeholders of a series of files (:class:`SaveBest`, :class:`Output`): the iteration's
+#: step counted on across the runs of one call, and its run.
+PLACEHOLDERS = ("{iteration}", "{run}")
+
+
+class Output(NamedTuple):
+    """A file a :class:`Callback` writes, as :meth:`Callback.outputs` declares it: ``name`` (what
+    an error calls it), ``path``, and whether it is a ``folder`` the callback writes files of its
+    own names in (made if missing). A file's name may hold ``{iteration}`` and ``{run}``: a
+    series of files, one per step (:class:`SaveBest`). Before the first iteration the run refuses
+    an output that is the file of another (its checkpoint, another callback's), a path that is
+    not a regular file (a directory, a device, a FIFO) or not a folder, and a folder that cannot
+    be written.
+
+    Example:
+        >>> SaveBest("best_{iteration}.json").outputs()
+        [Output(name='SaveBest path', path='best_{iteration}.json', folder=False)]
+        >>> TensorBoard("runs").outputs()[0].folder
+        True
+    """
+
+    name: str
+    path: str
+    folder: bool = False
+
 
 class Callback:
     """The base of the built-in callbacks: called after every iteration with its
-    :class:`Iteration`, it returns ``False`` to stop the run, ``None`` or ``True`` to go on;
-    :meth:`close` is called once the run has ended, however it ended. Any callable taking an
-    :class:`Iteration` is a callback too (a subclass only adds :meth:`close`).
+    :class:`Iteration`, it returns ``False`` to stop the run, ``None`` or ``True`` to go on.
+    Three hooks, each called by every optimiser: :meth:`outputs` before the run (the files it
+    writes, checked then), :meth:`on_result` once the run has its result, and :meth:`close` once
+    the run has ended, however it ended. Any callable taking an :class:`Iteration` is a callback
+    too (a subclass only adds the hooks).
 
     Example:
         >>> class Every(Callback):
@@ -100,15 +146,25 @@ class Callback:
         ...         self.means = []
         ...     def __call__(self, iteration):
         ...         self.means.append(iteration["mean"])
+        ...     def on_result(self, result):
+        ...         self.result = result
         >>> every = Every()
         >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
         ...                         max_iterations=3, progress=False, callback=every)
-        >>> len(every.means)
-        3
+        >>> len(every.means), every.result is result
+        (3, True)
     """
 
     def __call__(self, iteration: Iteration) -> bool | None:
         raise NotImplementedError
+
+    def outputs(self) -> list[Output]:
+        """The files it writes (:class:`Output`, or ``(name, path)`` pairs): none by default."""
+        return []
+
+    def on_result(self, result: Any) -> None:
+        """Called with the optimiser's result once it has one (not when the run raised); what it
+        raises is a warning, the result returned all the same."""
 
     def close(self) -> None:
         """Called once the run has ended (the end, a stop, an exception)."""
@@ -117,7 +173,8 @@ class Callback:
 class CallbackList(Callback):
     """Several callbacks, called in order after every iteration (every one of them, whatever
     the others answer): the run stops when one of them returns ``False``. ``callback=`` makes
-    one of a list.
+    one of a list. Its outputs are theirs; the run gives each its result and closes each (see
+    :mod:`cehmm.callbacks`).
 
     Args:
         callbacks: the callbacks (callables taking an :class:`Iteration`).
@@ -148,18 +205,54 @@ class CallbackList(Callback):
             go_on = _answer(c, c(iteration)) and go_on
         return go_on
 
+    def outputs(self) -> list[Output]:
+        """The outputs of every callback in it that is a :class:`Callback`."""
+        return [Output(*o) for c in members(self) for o in c.outputs()]
+
+    def on_result(self, result: Any) -> None:
+        """Gives ``result`` to every callback that is a :class:`Callback` (all of them, then raises
+        the first exception one raised, the others noted on it)."""
+        _each(self, lambda c: c.on_result(result), "given the result")
+
     def close(self) -> None:
         """Closes every callback that is a :class:`Callback` (all of them, then raises the first
-        exception one raised)."""
-        failed: list[BaseException] = []
-        for c in self.callbacks:
-            if isinstance(c, Callback):
-                try:
-                    c.close()
-                except BaseException as e:  # the others are closed all the same
-                    failed.append(e)
-        if failed:
-            raise failed[0]
+        exception one raised, the others noted on it)."""
+        _each(self, lambda c: c.close(), "closed")
+
+
+def members(callback: Any) -> list[Callback]:
+    """The :class:`Callback` objects ``callback`` is made of: itself, or those of a
+    :class:`CallbackList` (nested lists flattened); plain callables have no hooks."""
+    if isinstance(callback, CallbackList):
+        return [m for c in callback.callbacks for m in members(c)]
+    return [callback] if isinstance(callback, Callback) else []
+
+
+def failure(callback: Any, error: BaseException, when: str) -> str:
+    """What a hook's failure says: the callback, the error, and when (``"closed"``)."""
+    return f"callback {type(callback).__qualname__} raised {type(error).__name__} when {when}: {error}"
+
+
+def note(error: BaseException, text: str) -> None:
+    """Adds ``text`` to ``error``'s notes (``add_note`` from Python 3.11; ``__notes__`` before)."""
+    if hasattr(error, "add_note"):
+        error.add_note(text)
+    else:  # pragma: no cover - Python < 3.11
+        error.__notes__ = [*getattr(error, "__notes__", []), text]  # type: ignore[attr-defined]
+
+
+def _each(callbacks: CallbackList, act: Callable[[Callback], None], when: str) -> None:
+    failed: list[tuple[Callback, Exception]] = []
+    for c in members(callbacks):
+        try:
+            act(c)
+        except Exception as e:  # the others have theirs all the same
+            failed.append((c, e))
+    if failed:
+        first = failed[0][1]
+        for other, error in failed[1:]:
+            note(first, failure(other, error, when))
+        raise first
 
 
 class StopOnNoImprovement(Callback):
@@ -211,12 +304,26 @@ class StopOnNoImprovement(Callback):
 
 class SaveBest(Callback):
     """Saves the best policy so far to ``path`` every ``every`` iterations (replacing the file,
-    atomically: never half-written), where :meth:`cehmm.Policy.load` reads it; ``{iteration}``
-    in ``path`` is replaced by the iteration's number (one file per save).
+    atomically: never half-written), where :meth:`cehmm.Policy.load` reads it.
+
+    The file holds the best of the whole call: with ``restarts``, a run whose best so far scores
+    below the policy saved (its record's ``score``, what the optimiser chooses by) does not write
+    over it, and once the optimiser returns, the file holds the result's own policy
+    (:meth:`on_result`). ``{iteration}`` in the file's name makes a series of files, one per save,
+    numbered by the step counted on across the runs of the call (TensorBoard's step: ``{iteration}``
+    of the second run goes on from the first's last; and on across later calls of the same
+    ``SaveBest``, so that no name is written twice; a resumed run counts from where it resumed),
+    and ``{run}`` by the run's index among the restarts; each holds its run's best so far at that
+    step.
 
     Args:
-        path: the policy file (JSON, model §6).
+        path: the policy file (JSON, model §6); ``{iteration}`` and ``{run}`` only in its name.
         every: iterations between two saves, at least 1.
+
+    Attributes:
+        saved: the paths written, in order.
+        best_score: the ``score`` of the policy saved at ``path`` during the run (``None``
+            before the first save, or with placeholders).
 
     Raises:
         TypeError, InvalidArgumentError: an argument of the wrong type or out of its domain.
@@ -225,27 +332,73 @@ class SaveBest(Callback):
     Example:
         >>> save = SaveBest("best.json", every=2)
         >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
-        ...                         max_iterations=4, progress=False, callback=save)  # doctest: +SKIP
-        >>> cehmm.Policy.load("best.json").levels  # doctest: +SKIP
-        [4]
+        ...                         max_iterations=4, restarts=2, progress=False, callback=save)
+        >>> cehmm.Policy.load("best.json").provenance == result.policy.provenance  # the result's own
+        True
+        >>> steps = SaveBest("best-{run}-{iteration}.json")
+        >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
+        ...                         max_iterations=2, restarts=2, progress=False, callback=steps)
+        >>> steps.saved
+        ['best-0-0.json', 'best-0-1.json', 'best-1-2.json', 'best-1-3.json']
     """
 
     def __init__(self, path: str | os.PathLike[str], every: int = 1) -> None:
         if not isinstance(path, (str, os.PathLike)):
             raise TypeError(f"invalid path: {path!r} (expected a str or os.PathLike)")
         self.path = os.fspath(path)
+        if any(p in os.path.dirname(self.path) for p in PLACEHOLDERS):
+            raise _core.InvalidArgumentError(
+                f"invalid path: {self.path!r} (expected {' and '.join(PLACEHOLDERS)} in the file's name only, "
+                "not in its folder)"
+            )
         self.every = _count("every", every)
         self.saved: list[str] = []
+        self.best_score: float | None = None
+        self._series = any(p in self.path for p in PLACEHOLDERS)
+        self._steps = Steps()
         self._calls = 0
+        self._run: int | None = None
+        self._run_best: float | None = None
+        self._ended = False
 
     def __call__(self, iteration: Iteration) -> None:
+        step, run = self._steps(iteration)
+        if self._ended:  # a new call: its own best
+            self.best_score, self._run, self._ended = None, None, False
+        if run != self._run:
+            self._run, self._run_best = run, None
+        score = iteration.get("score")
+        if isinstance(score, (int, float)) and not isinstance(score, bool):
+            self._run_best = float(score) if self._run_best is None else max(self._run_best, float(score))
         self._calls += 1
         if self._calls % self.every:
             return
-        policy = _best(iteration, "SaveBest")
-        path = self.path.replace("{iteration}", str(iteration.get("iteration", self._calls - 1)))
-        policy.save(path, overwrite=True)
+        if self._series:
+            path = self.path.replace("{iteration}", str(step)).replace("{run}", str(run))
+        elif self.best_score is not None and self._run_best is not None and self._run_best < self.best_score:
+            return  # a worse run: the file keeps the better policy
+        else:
+            path = self.path
+        _best(iteration, "SaveBest").save(path, overwrite=True)
         self.saved.append(path)
+        if not self._series:
+            self.best_score = self._run_best
+
+    def outputs(self) -> list[Output]:
+        """Its file (a series of files with placeholders)."""
+        return [Output("SaveBest path", self.path)]
+
+    def on_result(self, result: Any) -> None:
+        """Writes the result's policy to ``path`` (without placeholders): the file holds what
+        the optimiser returned, the best of the whole call."""
+        policy = getattr(result, "policy", None)
+        if not self._series and isinstance(policy, Policy):
+            policy.save(self.path, overwrite=True)
+            self.saved.append(self.path)
+
+    def close(self) -> None:
+        """Ends the call: the next call saves its own best."""
+        self._ended = True
 
 
 class EvalOnEnv(Callback):
@@ -311,7 +464,8 @@ class TensorBoard(Callback):
     Each run writes a file of its own, opened at its first iteration and closed at its end.
 
     Args:
-        log_dir: the folder (made if missing).
+        log_dir: the folder (made if missing; a file, a device or a FIFO is refused before the
+            run).
 
     Raises:
         ImportError: tensorboardX is not installed (the message says how to install it).
@@ -334,34 +488,62 @@ class TensorBoard(Callback):
             raise TypeError(f"invalid tensorboard_log: {log_dir!r} (expected a folder: a str or os.PathLike)")
         self.log_dir = os.fspath(log_dir)
         self._writer: Any = None
-        self._last: int | None = None
-        self._offset = 0
+        self._steps = Steps()
 
     def step(self, iteration: Iteration) -> int:
         """The step ``iteration`` is written at: its number, plus the iterations of the runs
-        before it (a number that does not grow starts a new run); Q-learning's updates."""
-        if "updates" in iteration:
-            return int(iteration["updates"])
-        k = int(iteration.get("iteration", 0 if self._last is None else self._last + 1))
-        if self._last is not None and k <= self._last:
-            self._offset += self._last + 1
-        self._last = k
-        return k + self._offset
+        before it in the call (:class:`Steps`); Q-learning's updates."""
+        return self._steps(iteration)[0]
 
     def __call__(self, iteration: Iteration) -> None:
         if self._writer is None:
             self._writer = self._writer_class(logdir=self.log_dir)
-            self._last, self._offset = None, 0
+            self._steps = Steps()
         step = self.step(iteration)
         for key, value in iteration.items():
             if key != "iteration" and isinstance(value, (int, float)):
                 self._writer.add_scalar(key, float(value), step)
+
+    def outputs(self) -> list[Output]:
+        """Its folder."""
+        return [Output("tensorboard_log", self.log_dir, folder=True)]
 
     def close(self) -> None:
         """Flushes and closes the event file (the next run opens another)."""
         if self._writer is not None:
             writer, self._writer = self._writer, None
             writer.close()
+
+
+class Steps:
+    """An iteration's step counted on across the runs of one call, and its run: the one count of
+    :class:`TensorBoard`'s steps and :class:`SaveBest`'s names. A run is the record's ``run``
+    (``restart`` in older records); without either, an iteration number that does not grow
+    starts the next. Q-learning's step is its updates so far.
+
+    Example:
+        >>> steps = Steps()
+        >>> [steps(Iteration({"iteration": k, "run": r})) for r, k in [(0, 0), (0, 1), (1, 0), (1, 1)]]
+        [(0, 0), (1, 0), (2, 1), (3, 1)]
+    """
+
+    def __init__(self) -> None:
+        self._last: int | None = None
+        self._offset = 0
+        self._run: Any = None
+        self._runs = 0
+
+    def __call__(self, iteration: Iteration) -> tuple[int, int]:
+        """``(step, run)`` of ``iteration``, the next in the call."""
+        if "updates" in iteration:
+            return int(iteration["updates"]), 0
+        k = int(iteration.get("iteration", 0 if self._last is None else self._last + 1))
+        run = iteration.get("run", iteration.get("restart"))
+        if self._last is not None and (k <= self._last or (run is not None and run != self._run)):
+            self._offset += self._last + 1
+            self._runs += 1
+        self._last, self._run = k, run
+        return k + self._offset, int(run) if run is not None else self._runs
 
 
 def _summary_writer() -> Any:
@@ -409,44 +591,3 @@ def _answer(callback: Any, answer: Any) -> bool:
     raise TypeError(
         f"invalid answer of callback {callback!r}: {answer!r} (expected True or None to go on, False to stop)"
     )
-
-
-def as_callback(callback: CallbackLike) -> Callable[[Iteration], bool | None] | None:
-    """``callback=`` as one callable: ``None``, a callable, or a :class:`CallbackList` of a list.
-
-    Raises:
-        TypeError: anything else (the message names it).
-    """
-    if callback is None or callable(callback):
-        return callback
-    if isinstance(callback, (list, tuple)):
-        return CallbackList(list(callback))
-    raise TypeError(
-        f"invalid callback: {callback!r} (expected a callable taking the iteration, a list of them, or None)"
-    )
-
-
-@contextmanager
-def driven(
-    callback: CallbackLike, tensorboard_log: str | os.PathLike[str] | None = None
-) -> Iterator[Callable[[dict[str, Any], _core.Policy | None], bool] | None]:
-    """The engine's per-iteration hook of ``callback=`` and ``tensorboard_log=`` (``None`` for
-    neither), checked before the run; every :class:`Callback` among them is closed once the
-    block has ended, however it ended. Every optimiser runs inside it."""
-    one = as_callback(callback)
-    if tensorboard_log is not None:
-        board = TensorBoard(tensorboard_log)
-        one = board if one is None else CallbackList([one, board])
-    if one is None:
-        yield None
-        return
-    call = one
-
-    def hook(record: dict[str, Any], policy: _core.Policy | None) -> bool:
-        return _answer(call, call(Iteration(record, policy)))
-
-    try:
-        yield hook
-    finally:
-        if isinstance(one, Callback):
-            one.close()

@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from ._driven import driven
 from .backend import Backend
-from .callbacks import CallbackLike, driven
-from .optimizer import CE_DEFAULTS, _sigterm_interrupts
+from .callbacks import CallbackLike
+from .optimizer import CE_DEFAULTS
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
@@ -299,7 +300,7 @@ def optimize_controller(
         ('callback', 2)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    with driven(callback, tensorboard_log) as hook, _sigterm_interrupts(checkpoint is not None):
+    with driven(callback, tensorboard_log, checkpoint) as run:
         raw = _core.optimize_controller(
             sampled_world(core_world(world, **options), world, options, backend, workers, address),
             dict(
@@ -338,14 +339,16 @@ def optimize_controller(
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,
-            callback=hook,
+            callback=run.hook,
         )
-    found = raw["evaluation"]
-    return ControllerResult(
-        **{
-            **raw,
-            "policy": Policy(raw["policy"]),
-            "run_values": list(raw["run_values"]),
-            "evaluation": None if found is None else evaluation(found),
-        }
-    )
+        found = raw["evaluation"]
+        return run.ended(
+            ControllerResult(
+                **{
+                    **raw,
+                    "policy": Policy(raw["policy"]),
+                    "run_values": list(raw["run_values"]),
+                    "evaluation": None if found is None else evaluation(found),
+                }
+            )
+        )

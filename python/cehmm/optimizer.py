@@ -3,18 +3,16 @@
 from __future__ import annotations
 
 import os
-import signal
-import threading
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Union
 
 import numpy as np
 
 from . import _core
+from ._driven import driven
 from .backend import Backend
-from .callbacks import CallbackLike, driven
+from .callbacks import CallbackLike
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
@@ -227,7 +225,7 @@ def optimize(
         ('callback', 3)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    with driven(callback, tensorboard_log) as hook, _sigterm_interrupts(checkpoint is not None):
+    with driven(callback, tensorboard_log, checkpoint) as run:
         local = core_world(world, **options)
         sampled = sampled_world(local, world, options, backend, workers, address)
         raw = _core.optimize(
@@ -252,34 +250,9 @@ def optimize(
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,
-            callback=hook,
+            callback=run.hook,
         )
-    return OptimizeResult._from_core(raw)
-
-
-@contextmanager
-def _sigterm_interrupts(checkpointed: bool) -> Iterator[None]:
-    """With a checkpoint, in the main thread, and while SIGTERM has its default action: SIGTERM
-    stops the run like Ctrl-C (the checkpoint is saved), and once the block has returned the
-    process ends as SIGTERM asked, with its exit status. Every optimiser runs inside it."""
-    terminated: list[bool] = []
-    usable = checkpointed and threading.current_thread() is threading.main_thread()
-    if not usable or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-        yield
-        return
-
-    def handler(signum: int, frame: object) -> None:
-        terminated.append(True)
-        raise KeyboardInterrupt
-
-    signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if terminated:
-        # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
-        os.kill(os.getpid(), signal.SIGTERM)
+        return run.ended(OptimizeResult._from_core(raw))
 
 
 def _initial(world: Any, levels: Sequence[int] | None, init: Init, seed: int) -> Policy:

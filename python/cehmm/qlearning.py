@@ -18,7 +18,8 @@ from typing import Any, Union
 import numpy as np
 
 from . import _core
-from .callbacks import CallbackLike, driven
+from ._driven import driven
+from .callbacks import CallbackLike
 from .policy import Policy
 from .results import WindowEvaluation, windows
 from .world import World, core_world
@@ -124,8 +125,9 @@ class QLearner:
         """Runs updates until the run has ``iterations`` in all (a run is continued, not restarted).
 
         With ``checkpoint``, the run is saved there every ``checkpoint_every`` seconds (if given),
-        when Ctrl-C stops it and at the end. Ctrl-C stops between chunks of about a million
-        updates and sets :attr:`interrupted` (no exception). ``callback`` is called after every
+        when Ctrl-C stops it and at the end, and a SIGTERM stops it as Ctrl-C does, then ends the
+        process as SIGTERM asks (see :func:`cehmm.optimize`). Ctrl-C stops between chunks of about
+        a million updates and sets :attr:`interrupted` (no exception). ``callback`` is called after every
         chunk with its progress (a :class:`cehmm.callbacks.Iteration` without a policy: the table
         cannot be read while it learns), and ``False`` stops it there (:attr:`stop_reason`
         ``"callback"``, the checkpoint saved); ``tensorboard_log`` writes that progress to a
@@ -137,17 +139,17 @@ class QLearner:
             >>> learner.train(3 * 2**20, progress=False, callback=lambda it: False).stop_reason  # doctest: +SKIP
             'callback'
         """
-        with driven(callback, tensorboard_log) as hook:
+        with driven(callback, tensorboard_log, checkpoint) as run:
             reason = self._core.train(
                 iterations,
                 progress=progress,
                 checkpoint=None if checkpoint is None else os.fspath(checkpoint),
                 checkpoint_every=checkpoint_every,
-                callback=hook,
+                callback=run.hook,
             )
-        self.interrupted = reason == "interrupted"
-        self.stop_reason = reason or "iterations"
-        return self
+            self.interrupted = reason == "interrupted"
+            self.stop_reason = reason or "iterations"
+            return run.ended(self)
 
     def evaluate_windows(
         self,

@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from ._driven import driven
 from .backend import Backend
-from .callbacks import CallbackLike, driven
-from .optimizer import CE_DEFAULTS, _sigterm_interrupts
+from .callbacks import CallbackLike
+from .optimizer import CE_DEFAULTS
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
@@ -99,7 +100,7 @@ def run(
         ('callback', 3)
     """
     options = {k: v for k, v in (("score", score), ("discount", discount), ("horizon", horizon)) if v is not None}
-    with driven(callback, tensorboard_log) as hook, _sigterm_interrupts(checkpoint is not None):
+    with driven(callback, tensorboard_log, checkpoint) as run:
         sampled = sampled_world(core_world(world, **options), world, options, backend, workers, address)
         raw = _core.run(
             name,
@@ -109,6 +110,8 @@ def run(
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,
             resume=resume,
-            callback=hook,
+            callback=run.hook,
         )
-    return RunResult(**{**raw, "policy": Policy(raw["policy"]), "evaluation": evaluation(raw["evaluation"])})
+        return run.ended(
+            RunResult(**{**raw, "policy": Policy(raw["policy"]), "evaluation": evaluation(raw["evaluation"])})
+        )
