@@ -13,7 +13,6 @@ import os
 import re
 import signal
 import stat
-import sys
 import tempfile
 import threading
 import warnings
@@ -36,10 +35,6 @@ from .callbacks import (
 )
 
 Result = TypeVar("Result")
-
-#: The longest a callback that signalled its own process waits for the handler to have run.
-SIGNAL_WAIT_SECONDS = 5.0
-
 
 def as_callback(callback: CallbackLike) -> Callable[[Iteration], bool | None] | None:
     """``callback=`` as one callable: ``None``, a callable, or a :class:`CallbackList` of a list.
@@ -100,16 +95,12 @@ class Drive:
         self.hook = None if one is None else self._hook
 
     def __enter__(self) -> Drive:
-        self._signals = Signals(self._checkpointed, watched=self._one is not None)
+        self._signals = Signals(self._checkpointed)
         return self
 
     def _hook(self, record: dict[str, Any], policy: _core.Policy | None) -> bool:
-        assert self._one is not None and self._signals is not None
-        handled = self._signals.before_callback()
-        try:
-            return _answer(self._one, self._one(Iteration(record, policy)))
-        finally:
-            self._signals.after_callback(handled)
+        assert self._one is not None
+        return _answer(self._one, self._one(Iteration(record, policy)))
 
     def ended(self, result: Result) -> Result:
         """``result``, given to every callback first (what one raises is a warning)."""
@@ -146,92 +137,30 @@ class Signals:
     """The signal handlers of one run, in the main thread. With a checkpoint, and while SIGTERM
     has its default action: SIGTERM stops the run like Ctrl-C (the checkpoint is saved) and, once
     the run is over and its callbacks closed, the process ends as SIGTERM asked, with its exit
-    status. With callbacks, SIGINT or SIGTERM that a callback sends to its own process
-    (``os.kill``, ``os.killpg``, ``signal.pthread_kill``: seen by an audit hook, as they are
-    called) is seen before the engine goes on: the kernel delivers it to the main thread a moment
-    later, whose Python handler the engine runs within 20 ms, so the hook waits for that handler
-    to have run (SIGINT's, Python's own, is wrapped to be seen running) and the run stops there,
-    as it does for a signal from outside."""
+    status. A signal a callback sends to its own process is seen before the run goes on: after
+    every callback the engine has the handlers run at once (``SignalCheck`` of the bindings), so
+    that it stops there, as it does for a signal from outside."""
 
-    def __init__(self, checkpointed: bool, watched: bool) -> None:
+    def __init__(self, checkpointed: bool) -> None:
         self.terminated = False
-        self._handled = 0
-        self._ran = threading.Condition()
         self._previous: dict[int, Any] = {}
-        self._sent: set[int] = set()
         if threading.current_thread() is not threading.main_thread():
             return
         if checkpointed and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
             self._previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, self._handler)
-        if watched and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            self._previous[signal.SIGINT] = signal.signal(signal.SIGINT, self._handler)
-        if watched and self._previous:
-            _watch_kills(self)
 
     def _handler(self, signum: int, frame: object) -> None:
-        if signum == signal.SIGTERM:
-            self.terminated = True
-        with self._ran:
-            self._handled += 1
-            self._ran.notify_all()
+        self.terminated = True
         raise KeyboardInterrupt
-
-    def sent(self, signum: int) -> None:
-        """A signal sent to this process (from the audit hook, in the sender's thread)."""
-        self._sent.add(signum)
-
-    def before_callback(self) -> int:
-        """Before a callback: forgets what was sent before it; the handlers' count."""
-        self._sent.clear()
-        return self._handled
-
-    def after_callback(self, handled: int) -> None:
-        """After a callback: when it sent SIGINT or SIGTERM to its own process, waits for the
-        handler to have run (on the main thread, which then asks the engine to stop)."""
-        if self._sent & set(self._previous):
-            with self._ran:
-                self._ran.wait_for(lambda: self._handled > handled, timeout=SIGNAL_WAIT_SECONDS)
 
     def end(self) -> None:
         """Restores the handlers; ends the process if SIGTERM asked."""
-        global _watched
-        if _watched is self:
-            _watched = None
         for signum, previous in self._previous.items():
             signal.signal(signum, previous)
         self._previous = {}
         if self.terminated:
             # The checkpoint is saved: now end as SIGTERM asked, with its exit status.
             os.kill(os.getpid(), signal.SIGTERM)
-
-
-#: The run whose callbacks' signals the audit hook reports (one at a time: in the main thread).
-_watched: Signals | None = None
-_audit_hook_added = False
-
-
-def _watch_kills(signals: Signals) -> None:
-    """Reports the signals sent to this process to ``signals`` until its run ends (the audit hook
-    is added once, for the process's life, as audit hooks are)."""
-    global _watched, _audit_hook_added
-    _watched = signals
-    if not _audit_hook_added:
-        sys.addaudithook(_audit)
-        _audit_hook_added = True
-
-
-def _audit(event: str, args: tuple[Any, ...]) -> None:
-    if event not in ("os.kill", "os.killpg", "signal.pthread_kill") or _watched is None:
-        return
-    target, signum = args
-    ours = {
-        "os.kill": lambda: target in (0, os.getpid(), -os.getpgrp()),
-        "os.killpg": lambda: target in (0, os.getpgrp()),
-        "signal.pthread_kill": lambda: True,
-    }[event]
-    watched = _watched
-    if watched is not None and ours():
-        watched.sent(int(signum))
 
 
 def check_outputs(outputs: Sequence[Output]) -> None:

@@ -127,7 +127,7 @@ impl PyQLearner {
         let every = optional_real("checkpoint_every", checkpoint_every)?;
         let learner = &mut self.learner;
         let mut signals = Signals::default();
-        let callback = PyCallback::new(callback, signals.interrupt())?;
+        let callback = PyCallback::new(callback, &signals)?;
         let interrupt = signals.interrupt().clone();
         let outcome = signals.watch(py, || {
             ceworld::catch_panics(|| {

@@ -16,7 +16,7 @@ use crate::arg::WorldArg;
 use crate::convert::{columns, flag, named, optional_real, to_py};
 use crate::errors::raise;
 use crate::policy::PyPolicy;
-use crate::signals::Signals;
+use crate::signals::{SignalCheck, Signals};
 
 /// Every optimiser's checkpoint arguments: where, how often (seconds), whether to resume; a
 /// `RuntimeWarning` when the checkpoint to resume from (read by `peek`) is of an earlier version
@@ -54,7 +54,7 @@ pub fn watched<T: Send>(
     checkpoint_error: impl FnOnce(&T) -> Option<&str>,
 ) -> PyResult<T> {
     let mut signals = Signals::default();
-    let callback = PyCallback::new(callback, signals.interrupt())?;
+    let callback = PyCallback::new(callback, &signals)?;
     let interrupt = signals.interrupt().clone();
     let stop = move || interrupt.flow();
     let call = callback.as_ref().map(|c| move |it: &Iteration<'_>| c.call(it));
@@ -76,14 +76,15 @@ pub fn watched<T: Send>(
 pub struct PyCallback {
     callable: Py<PyAny>,
     interrupt: Interrupt,
+    check: SignalCheck,
     raised: Mutex<Option<PyErr>>,
     best: Mutex<Option<Py<PyPolicy>>>,
 }
 
 impl PyCallback {
-    /// `callable` as a run's callback (`None`: none), stopping the run through `interrupt` when
-    /// it raises; a `TypeError` when it cannot be called.
-    pub fn new(callable: Option<&Bound<'_, PyAny>>, interrupt: &Interrupt) -> PyResult<Option<PyCallback>> {
+    /// `callable` as a run's callback (`None`: none), stopping the run through the interrupt of
+    /// `signals` when it raises; a `TypeError` when it cannot be called.
+    pub fn new(callable: Option<&Bound<'_, PyAny>>, signals: &Signals) -> PyResult<Option<PyCallback>> {
         let Some(callable) = callable.filter(|c| !c.is_none()) else { return Ok(None) };
         if !callable.is_callable() {
             return Err(PyTypeError::new_err(format!(
@@ -93,21 +94,28 @@ impl PyCallback {
         }
         Ok(Some(PyCallback {
             callable: callable.clone().unbind(),
-            interrupt: interrupt.clone(),
+            interrupt: signals.interrupt().clone(),
+            check: signals.check(),
             raised: Mutex::new(None),
             best: Mutex::new(None),
         }))
     }
 
-    /// Calls it on `iteration` (with the interpreter) and translates its answer.
+    /// Calls it on `iteration` (with the interpreter) and translates its answer; then has the
+    /// signal handlers run at once, so that a signal it sent to its own process (SIGINT: Ctrl-C)
+    /// stops the run here, as one from outside would.
     pub fn call(&self, iteration: &Iteration<'_>) -> Flow {
-        Python::attach(|py| match self.answer(py, iteration) {
-            Ok(flow) => flow,
-            Err(e) => {
-                self.raised.lock().unwrap_or_else(PoisonError::into_inner).get_or_insert(e);
-                self.interrupt.request();
-                Flow::Stop
-            }
+        Python::attach(|py| {
+            let flow = match self.answer(py, iteration) {
+                Ok(flow) => flow,
+                Err(e) => {
+                    self.raised.lock().unwrap_or_else(PoisonError::into_inner).get_or_insert(e);
+                    self.interrupt.request();
+                    Flow::Stop
+                }
+            };
+            self.check.now(py);
+            if self.interrupt.stopping() { Flow::Stop } else { flow }
         })
     }
 
