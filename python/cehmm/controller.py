@@ -185,8 +185,10 @@ def optimize_controller(
         time_limit: stop after this many seconds (all runs together), checked before each
             controller's evaluation on exact values here, between groups of about 1024
             episodes on sampled values here, before each iteration on a backend; an iteration it
-            cuts does not refit the laws. On sampled values the returned controller's evaluation
-            (``eval_episodes``) comes after it.
+            cuts does not refit the laws. On sampled values it holds the returned controller's
+            evaluation too: the iterations stop early by what ``eval_episodes`` would take (as
+            their own episodes ran; at most half the limit), and an evaluation that does not fit
+            is cut at the limit, with fewer episodes (``evaluation.episodes``).
         tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
             counts as progress.
         seed: seed of every random stream.

@@ -157,7 +157,11 @@ def optimize(
         patience: stop after this many unsuccessful iterations in a row (the paper's weak
             criterion is 100, its strong one 500).
         max_iterations: stop after this many iterations.
-        time_limit: stop after this many seconds (checked between iterations).
+        time_limit: stop after this many seconds (checked between iterations), the final
+            evaluation (and with ``restarts`` each run's score) included: the iterations stop
+            early by what those episodes would take (as the iterations' ran; at most half the
+            limit), and an evaluation that does not fit is cut at the limit, with fewer episodes
+            (``evaluation.episodes``).
         target: stop once an iteration's mean reward reaches this value.
         seed: seed of every random stream.
         threads: worker threads (default: one per core).
