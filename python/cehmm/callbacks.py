@@ -67,7 +67,8 @@ class Iteration(dict[str, Any]):
     """One iteration as a callback gets it: a dict of the history's scalars for that iteration
     (one row of the result's ``history``: ``iteration``, ``mean``, ``best``, ``elite_threshold``,
     ``elite_mean``, ``seconds``, ``successful``, and the controller search's own fields),
-    ``run`` (the run's index among the restarts, from 0, kept across a resume) and
+    ``run`` (the run's index among the restarts, from 0, kept across a resume), ``step`` (the
+    iteration's number counted on across the call's runs, kept across a resume) and
     ``score``, what the optimiser chooses its result by as of this iteration (the iteration's
     mean for :func:`cehmm.optimize` and :func:`cehmm.run`, the best value so far for
     :func:`cehmm.optimize_controller`); with the best policy so far on demand
@@ -85,7 +86,7 @@ class Iteration(dict[str, Any]):
         >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
         ...                         max_iterations=2, progress=False, callback=seen.append)
         >>> sorted(seen[0])
-        ['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'run', 'score', 'seconds', 'successful']
+        ['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'run', 'score', 'seconds', 'step', 'successful']
         >>> seen[1].best_policy().levels
         [4]
     """
@@ -501,7 +502,7 @@ class TensorBoard(Callback):
             self._steps = Steps()
         step = self.step(iteration)
         for key, value in iteration.items():
-            if key != "iteration" and isinstance(value, (int, float)):
+            if key not in ("iteration", "step") and isinstance(value, (int, float)):
                 self._writer.add_scalar(key, float(value), step)
 
     def outputs(self) -> list[Output]:
@@ -517,9 +518,10 @@ class TensorBoard(Callback):
 
 class Steps:
     """An iteration's step counted on across the runs of one call, and its run: the one count of
-    :class:`TensorBoard`'s steps and :class:`SaveBest`'s names. A run is the record's ``run``
-    (``restart`` in older records); without either, an iteration number that does not grow
-    starts the next. Q-learning's step is its updates so far.
+    :class:`TensorBoard`'s steps and :class:`SaveBest`'s names. The engine's records say both
+    (``step`` and ``run``, kept across a resume); in a record without them a run is its
+    ``restart``, or without it an iteration number that does not grow starts the next.
+    Q-learning's step is its updates so far.
 
     Example:
         >>> steps = Steps()
@@ -537,6 +539,8 @@ class Steps:
         """``(step, run)`` of ``iteration``, the next in the call."""
         if "updates" in iteration:
             return int(iteration["updates"]), 0
+        if "step" in iteration and "run" in iteration:
+            return int(iteration["step"]), int(iteration["run"])
         k = int(iteration.get("iteration", 0 if self._last is None else self._last + 1))
         run = iteration.get("run", iteration.get("restart"))
         if self._last is not None and (k <= self._last or (run is not None and run != self._run)):

@@ -52,7 +52,8 @@ pub struct Iteration<'a> {
     /// far for the controller search). Q-learning: its progress after a chunk of updates
     /// ([`crate::qlearn::QProgress`]) and `iteration`, the chunk's number in this call (from 0).
     /// Every optimiser's has `run` too: the run among the restarts it belongs to (from 0, kept
-    /// across a resume; 0 without restarts).
+    /// across a resume; 0 without restarts), and `step`: the iteration's number counted on
+    /// across the call's runs (kept across a resume; Q-learning's chunk).
     pub record: &'a Map<String, Value>,
     /// Whether the best policy may differ from the one of the callback's last call (true at
     /// the first): a caller that keeps it asks [`Iteration::best_policy`] again only then.
@@ -96,6 +97,8 @@ impl RunOptions<'_> {
                 let mut record = fields(seen.step);
                 record.insert("score".into(), json!(seen.step.score()));
                 record.insert("run".into(), json!(seen.run));
+                let own = record.get("iteration").and_then(Value::as_u64).unwrap_or(0);
+                record.insert("step".into(), json!(seen.earlier as u64 + own));
                 let best_changed = std::mem::take(&mut first) || seen.step.record().successful;
                 let best = || (seen.best)().map(|policy| Some(to_file(policy)));
                 callback(&Iteration { record: &record, best_changed, best: &best })
@@ -195,6 +198,7 @@ pub fn qlearn<W: KnownState>(
             let mut record = fields(p);
             record.insert("iteration".into(), json!(chunk));
             record.insert("run".into(), json!(0));
+            record.insert("step".into(), json!(chunk));
             callback(&Iteration { record: &record, best_changed: chunk == 0, best: &|| Ok(None) })
         });
         chunk += 1;
@@ -281,7 +285,7 @@ mod tests {
     use super::*;
     use crate::ce::stopping::StopReason;
     use crate::world::pomdp::PomdpWorld;
-    use crate::{CeConfig, QConfig, TargetTracking, random_policy};
+    use crate::{CeConfig, Checkpointing, QConfig, TargetTracking, random_policy};
 
     /// What a callback saw: each record, whether the best changed, and the best policy then.
     type Seen = Mutex<Vec<(Map<String, Value>, bool, Option<PolicyFile>)>>;
@@ -349,6 +353,44 @@ mod tests {
         let callback = keeping(&seen, 0, Flow::Finish);
         let stopped = optimize(&world, initial, &ce(Some(4), 1), &options(&callback, &|| Flow::Stop)).unwrap();
         assert_eq!((stopped.stop, stopped.history.len()), (StopReason::Interrupted, 1));
+    }
+
+    #[test]
+    fn every_record_names_its_run_and_its_step_across_runs_and_a_resume() {
+        let world = TargetTracking::new(1).unwrap();
+        let initial = random_policy(&world, &[3], 5).unwrap();
+        let counts = |seen: &Seen| -> Vec<(u64, u64, u64)> {
+            let count = |r: &Map<String, Value>, k: &str| r[k].as_u64().unwrap();
+            seen.lock()
+                .unwrap()
+                .iter()
+                .map(|(r, ..)| (count(r, "run"), count(r, "iteration"), count(r, "step")))
+                .collect()
+        };
+        let whole = Seen::default();
+        let callback = keeping(&whole, 1000, Flow::Continue);
+        optimize(&world, initial.clone(), &ce(Some(2), 3), &options(&callback, &|| Flow::Continue)).unwrap();
+        let expected = [(0, 0, 0), (0, 1, 1), (1, 0, 2), (1, 1, 3), (2, 0, 4), (2, 1, 5)];
+        assert_eq!(counts(&whole), expected);
+        // Stopped in the second run, then resumed: the records go on with the same numbers.
+        let dir = std::env::temp_dir().join(format!("ceworld-run-steps-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let checkpointing =
+            Checkpointing { path: dir.join("steps.ckpt"), every: 1e9, resume: true, outputs: Vec::new() };
+        let seen = Seen::default();
+        let callback = keeping(&seen, 2, Flow::Stop);
+        let with = |callback| RunOptions {
+            progress: false,
+            checkpointing: Some(&checkpointing),
+            stop: &|| Flow::Continue,
+            callback: Some(callback),
+        };
+        let cut = optimize(&world, initial.clone(), &ce(Some(2), 3), &with(&callback)).unwrap();
+        assert_eq!(cut.stop, StopReason::Interrupted);
+        let callback = keeping(&seen, 1000, Flow::Continue);
+        optimize(&world, initial, &ce(Some(2), 3), &with(&callback)).unwrap();
+        assert_eq!(counts(&seen), expected);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

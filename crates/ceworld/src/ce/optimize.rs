@@ -279,7 +279,8 @@ fn optimize_once<E: Episodes + ?Sized>(
         };
         history.push(record.clone());
         let best_policy = || Ok(best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"));
-        let flow = observer(&Observed { step: &record, best: &best_policy, run: saver.state.restart });
+        let earlier = saver.state.finished.iter().map(|r| r.result.history.len()).sum();
+        let flow = observer(&Observed { step: &record, best: &best_policy, run: saver.state.restart, earlier });
         let interrupted = world.interrupt().is_some_and(Interrupt::stopping).then_some(StopReason::Interrupted);
         // What the closing evaluations keep of the time limit, as this iteration's episodes ran.
         let per_episode = iteration_started.elapsed().as_secs_f64() / n as f64;

@@ -206,7 +206,7 @@ pub fn run_stepped_observed<O: Stepped>(
         run.history.push(record.clone());
         saver.save_run(false, || run.clone());
         let best = || run.state.policy(world);
-        if let Some(stop) = StopReason::asked(observe(&Observed { step: &record, best: &best, run: 0 })) {
+        if let Some(stop) = StopReason::asked(observe(&Observed { step: &record, best: &best, run: 0, earlier: 0 })) {
             break stop;
         }
     };

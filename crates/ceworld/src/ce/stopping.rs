@@ -65,6 +65,9 @@ pub struct Observed<'a, S> {
     pub best: &'a dyn Fn() -> Result<Hhmm>,
     /// The run it belongs to among the restarts (from 0; 0 without restarts).
     pub run: usize,
+    /// The iterations of the call's runs before this one (kept across a resume): the
+    /// iteration's number counted on across the runs is this plus its own.
+    pub earlier: usize,
 }
 
 /// When an optimisation stops.

@@ -385,6 +385,8 @@ impl Search<'_> {
         let stop = if let Some(stop) = resumed_stop {
             stop
         } else {
+            // The iterations of the runs before this one (for the callback's count).
+            let earlier: usize = saver.state.finished.iter().map(|r| r.history.len()).sum();
             loop {
                 let iteration = state.history.len();
                 // The time limit as an instant, so that the exact values can check it as they go.
@@ -400,8 +402,12 @@ impl Search<'_> {
                     Ok(drawn) => {
                         let cut = drawn.cut;
                         let record = self.learn(&mut state, &drawn, restart, saver.seconds());
-                        let flow =
-                            observe(&Observed { step: &record, best: &|| self.best_policy(&state), run: restart });
+                        let flow = observe(&Observed {
+                            step: &record,
+                            best: &|| self.best_policy(&state),
+                            run: restart,
+                            earlier,
+                        });
                         if let Values::Sampled(_) = self.values {
                             let per_episode = started.elapsed().as_secs_f64() / record.episodes.max(1) as f64;
                             let kept = closing_reserve(config.time_limit, per_episode, config.eval_episodes);
