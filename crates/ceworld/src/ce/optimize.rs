@@ -200,8 +200,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     }
     let pool = thread_pool(config.threads)?;
     let layout = initial.layout().clone();
-    let horizon = world.shape().horizon;
-    let stride = horizon * layout.record_width();
+    let stride = world.shape().horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
     let remote = remote_of(world, config)?;
     let started = Instant::now();
