@@ -32,6 +32,7 @@ __all__ = [
     "cli",
     "read_file",
     "check_distinct",
+    "check_writable",
     "optimize",
     "Agent",
     "Session",
@@ -387,6 +388,7 @@ def read_file(path: str | os.PathLike[str], max_bytes: int, what: str) -> bytes:
 def check_distinct(
     inputs: Sequence[tuple[str, str | os.PathLike[str]]], outputs: Sequence[tuple[str, str | os.PathLike[str]]]
 ) -> None: ...
+def check_writable(option: str, path: str | os.PathLike[str]) -> None: ...
 def optimize(
     world: World | OutsideWorld,
     initial: Policy,

@@ -207,8 +207,9 @@ def _series(path: str) -> bool:
 
 
 def check_writable(name: str, path: str) -> None:
-    """Refuses a file ``path`` that cannot be written, as the engine's ``ceworld::files::check_writable``
-    does (links followed; it creates and removes a temporary file beside it).
+    """Refuses a file ``path`` that cannot be written: the engine's rule
+    (``ceworld::files::check_writable``: links followed; it creates and removes a temporary file
+    beside it), its ``OSError`` naming the output.
 
     Raises:
         InvalidArgumentError: ``path`` is a directory, a device or a FIFO.
@@ -218,16 +219,16 @@ def check_writable(name: str, path: str) -> None:
         >>> check_writable("out", "new.json")
         >>> check_writable("out", "/dev/null")
         Traceback (most recent call last):
-        cehmm.InvalidArgumentError: invalid out: '/dev/null' is not a regular file (a device, socket or pipe) ...
+        cehmm.InvalidArgumentError: invalid out: /dev/null is not a regular file (a device, socket or pipe) ...
     """
-    target = os.path.realpath(path)
-    mode = _mode(target)
-    if mode is not None and not stat.S_ISREG(mode):
-        kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file (a device, socket or pipe)"
-        raise _core.InvalidArgumentError(
-            f"invalid {name}: {path!r} is {kind} (expected a regular file to write, or a new name)"
-        )
-    _probe(name, path, os.path.dirname(target), "a file in a folder that exists and can be written")
+    try:
+        _core.check_writable(name, path)
+    except OSError as e:
+        raise type(e)(
+            e.errno,
+            f"invalid {name}: {path!r} cannot be written: {e.strerror} "
+            "(expected a file in a folder that exists and can be written)",
+        ) from None
 
 
 def check_folder(name: str, path: str) -> None:

@@ -1,7 +1,7 @@
-//! The engine's rules for a user's files (`ceworld::files`) for the commands and readers written
-//! in Python (`cehmm plot`, history files): `read_file`, the bounded read of a regular file, and
-//! `check_distinct`, no output written over an input or another output; so that they refuse
-//! what the engine's own commands refuse.
+//! The engine's rules for a user's files (`ceworld::files`) for the commands, readers and
+//! callbacks written in Python (`cehmm plot`, history files, `SaveBest`): `read_file`, the
+//! bounded read of a regular file, `check_distinct`, no output written over an input or another
+//! output, and `check_writable`; so that they refuse what the engine's own commands refuse.
 
 use std::path::{Path, PathBuf};
 
@@ -26,6 +26,14 @@ pub fn read_file<'py>(py: Python<'py>, path: PathBuf, max_bytes: u64, what: &str
 #[pyfunction]
 pub fn check_distinct(inputs: Vec<(String, PathBuf)>, outputs: Vec<(String, PathBuf)>) -> PyResult<()> {
     ceworld::files::check_distinct(&named(&inputs), &named(&outputs)).or_raise()
+}
+
+/// Refuses a file `path` (given as `option`, which the error names) that cannot be written
+/// (`ceworld::files::check_writable`: links followed; a directory, a device, a FIFO, a missing
+/// or read-only folder), creating and removing a temporary file beside it.
+#[pyfunction]
+pub fn check_writable(option: &str, path: PathBuf) -> PyResult<()> {
+    ceworld::files::check_writable(option, &path).or_raise()
 }
 
 /// `(option, path)` pairs as the core takes them.

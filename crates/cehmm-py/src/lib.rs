@@ -48,7 +48,7 @@ mod _core {
         WorldError,
     };
     #[pymodule_export]
-    use super::files::{check_distinct, read_file};
+    use super::files::{check_distinct, check_writable, read_file};
     #[pymodule_export]
     use super::optimize::optimize;
     #[pymodule_export]

@@ -15,9 +15,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
 
-/// The file that `path` names for writing: itself, or where its symbolic links lead; an error
-/// when it exists and is not a regular file.
-fn target(path: &Path) -> Result<PathBuf> {
+/// The file that `path` (given as `what`) names for writing: itself, or where its symbolic
+/// links lead; an error naming `what` when it exists and is not a regular file.
+fn target(what: &str, path: &Path) -> Result<PathBuf> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
     let mut resolved = path.to_path_buf();
     for _ in 0..40 {
@@ -33,16 +33,16 @@ fn target(path: &Path) -> Result<PathBuf> {
             }
             Ok(meta) if meta.is_file() => return Ok(resolved),
             Ok(meta) => {
-                return Err(not_regular("path", path, &resolved, &meta, "a regular file to write, or a new name"));
+                return Err(not_regular(what, path, &resolved, &meta, "a regular file to write, or a new name"));
             }
         }
     }
-    Err(Error::invalid("path", format!("{} (too many levels of symbolic links)", path.display())))
+    Err(Error::invalid(what, format!("{} (too many levels of symbolic links)", path.display())))
 }
 
-/// The folder and file name of the file `path` names for writing.
-fn place(path: &Path) -> Result<(PathBuf, PathBuf, String)> {
-    let target = target(path)?;
+/// The folder and file name of the file `path` (given as `what`) names for writing.
+fn place(what: &str, path: &Path) -> Result<(PathBuf, PathBuf, String)> {
+    let target = target(what, path)?;
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -66,10 +66,11 @@ fn temporary(path: &Path, dir: &Path, name: &str) -> Result<(File, PathBuf)> {
     }
 }
 
-/// Refuses, before any work, a `path` that cannot be written: a missing or read-only folder,
-/// a directory, a device (it creates and removes a temporary file beside it).
-pub fn check_writable(path: &Path) -> Result<()> {
-    let (_, dir, name) = place(path)?;
+/// Refuses, before any work, a `path` (given as `what`: the option or argument, which the
+/// error names) that cannot be written: a missing or read-only folder, a directory, a device
+/// (it creates and removes a temporary file beside it).
+pub fn check_writable(what: &str, path: &Path) -> Result<()> {
+    let (_, dir, name) = place(what, path)?;
     let (file, tmp) = temporary(path, &dir, &name)?;
     drop(file);
     let _ = std::fs::remove_file(&tmp);
@@ -104,7 +105,7 @@ fn remove_stale(dir: &Path, name: &str) {
 
 /// Writes `path` through a unique temporary file in its folder, synced, then renamed over it.
 pub fn write_atomic(path: &Path, write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>) -> Result<()> {
-    let (target, dir, name) = place(path)?;
+    let (target, dir, name) = place("path", path)?;
     let (file, tmp) = temporary(path, &dir, &name)?;
     let written = (|| -> std::io::Result<()> {
         let mut out = BufWriter::with_capacity(1 << 20, file);
@@ -182,7 +183,7 @@ pub fn read_limited(path: &Path, max_bytes: u64, what: &str) -> Result<Vec<u8>> 
 /// points), its folder made canonical where it exists. Two paths that lead to one place name one
 /// file, existing or to be created; a checkpoint records its run's outputs so.
 pub fn resolved(path: &Path) -> PathBuf {
-    let target = target(path).unwrap_or_else(|_| path.to_path_buf());
+    let target = target("path", path).unwrap_or_else(|_| path.to_path_buf());
     let absolute = std::path::absolute(&target).unwrap_or(target);
     match (absolute.parent(), absolute.file_name()) {
         (Some(dir), Some(name)) => std::fs::canonicalize(dir).map_or_else(|_| absolute.clone(), |d| d.join(name)),

@@ -321,7 +321,7 @@ impl<'a, K: Resumable> Saver<'a, K> {
             Some(c) => {
                 c.validate()?;
                 // Found now, not at the first save after a long stretch of work.
-                crate::files::check_writable(&c.path)?;
+                crate::files::check_writable("checkpoint", &c.path)?;
                 if c.resume && c.path.exists() {
                     let saved = Checkpoint::<K>::load(&c.path)?;
                     saved.check_matches(&world_json, config)?;

@@ -501,7 +501,7 @@ pub(crate) fn check_outputs(
         if !force {
             crate::files::check_new(option, path, "give --force")?;
         }
-        crate::files::check_writable(path)?;
+        crate::files::check_writable(option, path)?;
     }
     Ok(())
 }

@@ -76,7 +76,7 @@ impl OutputArgs {
                 };
                 crate::files::check_new(option, path, &how)?;
             }
-            crate::files::check_writable(path)?;
+            crate::files::check_writable(option, path)?;
         }
         if let Some(path) = &self.history {
             history_format(path)?;
