@@ -333,13 +333,16 @@ mod tests {
         let dir = temp_dir("writable");
         let missing = dir.join("no-such-folder").join("p.json");
         for bad in [missing.clone(), dir.clone()] {
-            let e = check_writable(&bad).unwrap_err().to_string();
+            let e = check_writable("--out", &bad).unwrap_err().to_string();
             assert!(e.contains(&bad.display().to_string()) && !e.contains(".tmp"), "{e}");
         }
+        // A directory is refused naming the option that gave it.
+        let e = check_writable("--out", &dir).unwrap_err().to_string();
+        assert!(e.starts_with("invalid --out: ") && e.contains("is a directory"), "{e}");
         let e = write_atomic(&missing, |out| out.write_all(b"x")).unwrap_err().to_string();
         assert!(e.contains(&missing.display().to_string()) && !e.contains(".tmp"), "{e}");
         let fine = dir.join("p.json");
-        check_writable(&fine).unwrap();
+        check_writable("--out", &fine).unwrap();
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "the probe leaves nothing");
         std::fs::remove_dir_all(&dir).unwrap();
     }
