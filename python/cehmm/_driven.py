@@ -36,6 +36,7 @@ from .callbacks import (
 
 Result = TypeVar("Result")
 
+
 def as_callback(callback: CallbackLike) -> Callable[[Iteration], bool | None] | None:
     """``callback=`` as one callable: ``None``, a callable, or a :class:`CallbackList` of a list.
 
@@ -228,6 +229,7 @@ def check_writable(name: str, path: str) -> None:
             e.errno,
             f"invalid {name}: {path!r} cannot be written: {e.strerror} "
             "(expected a file in a folder that exists and can be written)",
+            e.filename,
         ) from None
 
 
@@ -276,7 +278,7 @@ def _probe(name: str, path: str, folder: str, expected: str) -> None:
         fd, probe = tempfile.mkstemp(prefix=".cehmm-probe.", suffix=".tmp", dir=folder or ".")
     except OSError as e:
         raise type(e)(
-            e.errno, f"invalid {name}: {path!r} cannot be written: {e.strerror} (expected {expected})"
+            e.errno, f"invalid {name}: {path!r} cannot be written: {e.strerror} (expected {expected})", path
         ) from None
     os.close(fd)
     os.unlink(probe)
