@@ -5,16 +5,22 @@ what its action space holds; all 42 POPGym environments learnt and played."""
 
 from __future__ import annotations
 
+import copy
+import json
 import pickle
+import time
+import tracemalloc
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 
 import cehmm
 import cehmm.gym
+from cehmm import _core
 from cehmm.encoded import EnvAgent, from_record
 from cehmm.pyworlds import TrackingEpisodes
 from cehmm.spaces import Bins, Flat, Grid, Hashed, encoding, space_of, space_record
@@ -68,8 +74,9 @@ def test_bins_at_the_bounds_and_given_edges_index_by_hand() -> None:
     # x = 2.5 in bin 2 ([2, 3)), y = -0.9 in bin 0: row-major 2·4 + 0; a value on an edge goes up.
     assert bins.index(np.array([2.5, -0.9])) == 8
     assert bins.index(np.array([3.0, 0.5])) == 3 * 4 + 3
-    # Outside the bounds: the end bins.
-    assert bins.index(np.array([-5.0, 7.0])) == 3
+    # Outside the bounds: not in the space (Box.contains), refused naming it.
+    with pytest.raises(cehmm.WorldError, match=r"observation array\(\[-5\., +7\.\]\) is not in the space"):
+        bins.index(np.array([-5.0, 7.0]))
     given = encoding(box, "observation", Bins(edges=[[1.0], [0.0, 0.5]]))
     assert given.size == 2 * 3 and given.index(np.array([1.0, 0.2])) == 1 * 3 + 1
     with pytest.raises(cehmm.WorldError, match=r"observation array\(\[1\.\].*is not in the space"):
@@ -81,16 +88,16 @@ def test_bins_at_the_bounds_and_given_edges_index_by_hand() -> None:
 @pytest.mark.parametrize(
     ("choice", "match"),
     [
-        (Bins(0, fit="bounds"), r"invalid Bins bins: 0 \(expected a positive int"),
-        (Bins(fit="bounds"), r'fit="bounds"\) of Box.*not all finite'),
-        (Bins(edges=[[1.0]]), r"1 lists for Box.*expected one per dimension, 2"),
-        (Grid(), r"invalid observation encoding: Grid"),
-        ("bins", r"invalid observations: 'bins' \(expected None, 'flat' or a cehmm.spaces encoding"),
+        (lambda: Bins(0, fit="bounds"), r"invalid Bins bins: 0 \(expected a positive int"),
+        (lambda: Bins(fit="bounds"), r'fit="bounds"\) of Box.*not all finite'),
+        (lambda: Bins(edges=[[1.0]]), r"1 lists for Box.*expected one per dimension, 2"),
+        (lambda: Grid(), r"invalid observation encoding: Grid"),
+        (lambda: "bins", r"invalid observations: 'bins' \(expected None, 'flat' or a cehmm.spaces encoding"),
     ],
 )
 def test_bad_encodings_are_refused_naming_the_value(choice: Any, match: str) -> None:
     with pytest.raises((cehmm.InvalidArgumentError, TypeError), match=match):
-        cehmm.PythonWorld(Line(), observations=choice)
+        cehmm.PythonWorld(Line(), observations=choice())
 
 
 def test_other_bad_values_are_refused() -> None:
@@ -247,3 +254,266 @@ def test_a_controller_whose_policy_file_may_not_fit_is_refused_before_the_search
     big = cehmm.PythonWorld(Board(), observations=Hashed(1024), horizon=10)
     with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid nodes: 64 with Mealy decisions.*Hashed\(k\)"):
         cehmm.optimize_controller(big, max_iterations=1, progress=False)
+
+
+# -- issue 45: values checked against their space, sizes from arithmetic, records against their policy --------------
+
+
+def test_grid_values_outside_the_action_space_are_refused_naming_the_value_and_the_bounds() -> None:
+    box = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+    with pytest.raises(
+        cehmm.InvalidArgumentError, match=r"invalid Grid values\[0\]: 5\.0 \(expected .*\[-1\.0, 1\.0\]"
+    ):
+        encoding(box, "action", Grid(values=[[5, -5], [0]]))
+    pixels = spaces.Box(0, 255, shape=(2,), dtype=np.uint8)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid Grid values\[0\]: -1\.0 \(expected .*\[0, 255\]"):
+        encoding(pixels, "action", Grid(values=[[-1, 300], [0]]))
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid Grid values\[1\]: 300\.0"):
+        encoding(pixels, "action", Grid(values=[[0], [7, 300]]))
+    # An integer space takes integers only (no silent rounding), a float32 space float32's range.
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid Grid values\[0\]: 0\.5 \(expected an integer"):
+        encoding(pixels, "action", Grid(values=[[0.5], [0]]))
+    unbounded = spaces.Box(-np.inf, np.inf, shape=(1,), dtype=np.float32)
+    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid Grid values\[0\]: 1e\+40"):
+        encoding(unbounded, "action", Grid(values=[[1e40]]))
+    grid = encoding(pixels, "action", Grid(values=[[0, 255], [7]]))
+    assert grid.value(1).tolist() == [255, 7] and pixels.contains(grid.value(1))
+    # The default grid of an integer Box: integers, each action in the space.
+    ints = spaces.Box(0, 10, shape=(1,), dtype=np.int64)
+    default = encoding(ints, "action")
+    assert all(ints.contains(default.value(i)) for i in range(default.size))
+    assert sorted({int(default.value(i)[0]) for i in range(default.size)}) == [0, 2, 5, 8, 10]
+
+
+class Cube(gym.Env):
+    """A 3-d Box observation in [-1, 1], a Box action; 5 steps of reward 1."""
+
+    spec = EnvSpec("cehmm-tests/Cube-v0", max_episode_steps=5)
+    observation_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+    action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+
+    def reset(self, *, seed: int | None = None, options: Any = None) -> tuple[np.ndarray, dict]:
+        super().reset(seed=seed)
+        self.t = 0
+        return self.observation_space.sample(), {}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict]:
+        self.t += 1
+        return self.observation_space.sample(), 1.0, False, self.t >= 5, {}
+
+
+def _cube_policy() -> dict[str, Any]:
+    """The document of a policy of 27 observations (3 bins of each of Cube's 3 dimensions) and 3 decisions."""
+    world = cehmm.PythonWorld(Cube(), observations=Bins(3, fit="bounds"), actions=Grid(3), horizon=5)
+    policy = cehmm.Policy.uniform(world, [2])
+    assert (policy.n_obs, policy.n_actions) == (27, 3)
+    return json.loads(policy.to_json())
+
+
+def _edited(document: dict[str, Any], edit: str) -> dict[str, Any]:
+    document = copy.deepcopy(document)
+    spaces_record = document["world"]["spaces"]
+    if edit == "two edge lists":
+        spaces_record["observation"]["edges"].pop()
+    elif edit == "no observation":
+        del spaces_record["observation"]
+    elif edit == "huge n":
+        spaces_record["action"] = {"encoding": "flat", "space": {"type": "Discrete", "n": 10**20, "start": 0}}
+    elif edit == "fewer actions":
+        spaces_record["action"] = {
+            "encoding": "flat",
+            "space": {"type": "MultiDiscrete", "nvec": [2], "start": [0], "dtype": "int64"},
+        }
+    elif edit == "grid outside":
+        spaces_record["action"]["values"] = [[-5.0, 0.0, 5.0]]
+    elif edit == "grid of a count":  # Grid(3), unfitted (the fuzzer's find)
+        spaces_record["action"]["values"] = 3
+    elif edit == "not a dict":
+        document["world"]["spaces"] = ["observation", "action"]
+    return document
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        ("two edge lists", r"world\.spaces\.observation.*2 lists for Box\(-1\.0, 1\.0, \(3,\), float32\).*one per dim"),
+        ("no observation", r"world\.spaces\.observation: missing"),
+        ("huge n", r"world\.spaces\.action"),
+        ("fewer actions", r"world\.spaces\.action.*2 decisions.*expected the policy's n_actions, 3"),
+        ("grid outside", r"world\.spaces\.action.*invalid Grid values\[0\]: -5\.0"),
+        ("grid of a count", r"world\.spaces\.action: .*expected the values of each dimension, a list"),
+        ("not a dict", r"world\.spaces: \['observation', 'action'\]"),
+    ],
+)
+def test_a_policy_whose_recorded_spaces_disagree_with_it_is_refused_naming_the_field(
+    tmp_path: Any, edit: str, match: str
+) -> None:
+    document = _edited(_cube_policy(), edit)
+    path = tmp_path / "edited.json"
+    path.write_text(json.dumps(document))
+    with pytest.raises(cehmm.PolicyFormatError, match=match):
+        cehmm.Policy.load(path)
+    with pytest.raises(cehmm.PolicyFormatError, match=match):
+        cehmm.Policy.from_json(json.dumps(document))
+    # A policy that came in some other way: its agent, evaluation and play refuse it the same.
+    policy = cehmm.Policy(_core.Policy.load(str(path)))
+    with pytest.raises(cehmm.PolicyFormatError, match=match):
+        policy.agent()
+    with pytest.raises(cehmm.PolicyFormatError, match=match):
+        policy.evaluate(Cube(), episodes=2)
+    with pytest.raises(cehmm.PolicyFormatError, match=match):
+        cehmm.gym.play(Cube(), policy.agent(), episodes=1)
+
+
+def test_the_untouched_policy_of_recorded_spaces_loads_acts_and_evaluates(tmp_path: Any) -> None:
+    path = tmp_path / "cube.json"
+    path.write_text(json.dumps(_cube_policy()))
+    policy = cehmm.Policy.load(path)
+    assert cehmm.gym.play(Cube(), policy.agent(), episodes=2).tolist() == [5.0, 5.0]
+    assert policy.evaluate(Cube(), episodes=4).mean == 5.0
+
+
+class Image(gym.Env):
+    """An 84×84×3 image observation, never to be stepped."""
+
+    observation_space = spaces.Box(0, 255, shape=(84, 84, 3), dtype=np.uint8)
+    action_space = spaces.Discrete(2)
+
+    def reset(self, *, seed: int | None = None, options: Any = None) -> tuple[np.ndarray, dict]:
+        raise AssertionError("the warm-up should not have started")
+
+
+def _refused_at_once(make: Any, match: str) -> None:
+    """``make()`` raises InvalidArgumentError matching ``match`` within a second, having allocated under 20 MB."""
+    tracemalloc.start()
+    started = time.perf_counter()
+    try:
+        with pytest.raises(cehmm.InvalidArgumentError, match=match):
+            make()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert time.perf_counter() - started < 1.0
+    assert peak < 20e6, peak
+
+
+def test_sizes_are_refused_from_their_arithmetic_before_anything_is_built() -> None:
+    box = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+    _refused_at_once(lambda: Grid(10**8), r"invalid Grid values: 100000000 \(expected .*at most 65535")
+    _refused_at_once(lambda: Grid(10**9), r"invalid Grid values: 1000000000")
+    _refused_at_once(lambda: Bins(10**7, fit="bounds"), r"invalid Bins bins: 10000000 \(expected .*at most 65535")
+    _refused_at_once(lambda: encoding(spaces.Box(-1.0, 1.0, shape=(3,)), "action", Grid(300)), r"27000000 actions")
+    _refused_at_once(lambda: encoding(box, "observation", Bins(edges=[range(70000)])), r"70001 cells.*at most 65535")
+    _refused_at_once(
+        lambda: cehmm.PythonWorld(Image(), horizon=10),
+        r"invalid observation encoding: .*21168 dimensions.*more than 65535 cells",
+    )
+    # Sizes past 4300 digits are never written out (Python refuses to), nor computed.
+    _refused_at_once(lambda: Flat(spaces.MultiDiscrete([10] * 5000)), r"more than 2\*\*63 - 1 values")
+    _refused_at_once(lambda: Flat(spaces.MultiBinary([10**5, 10**5])), r"more than 2\*\*63 - 1 values")
+    _refused_at_once(
+        lambda: cehmm.PythonWorld(Image(), observations=Bins(2, fit="bounds"), horizon=10), r"more than 65535 cells"
+    )
+    # Many components, most of one value: exact, past numpy's 64 dimensions.
+    many = Flat(spaces.MultiDiscrete([2] * 10 + [1] * 90))
+    assert many.size == 1024 and many.index(np.array([1] * 10 + [0] * 90)) == 1023
+    assert many.value(5).tolist() == [0] * 7 + [1, 0, 1] + [0] * 90
+
+
+def test_multibinary_observations_given_as_floats_are_indexed_as_their_bits() -> None:
+    bits = spaces.MultiBinary(3)
+    value = np.array([0.0, 1.0, 1.0])
+    assert bits.contains(value)
+    assert Flat(bits).index(value) == Flat(bits).index(np.array([0, 1, 1], dtype=np.int8)) == 3
+    assert Flat(spaces.Tuple((bits, spaces.Discrete(2)))).index((value, 1)) == 7
+
+
+class Warm(gym.Env):
+    """Observes ``values[t]`` (cycling) in ``space``, for the warm-up of a quantile fit."""
+
+    action_space = spaces.Discrete(2)
+
+    def __init__(self, space: gym.Space, values: list[Any]) -> None:
+        self.observation_space, self.values = space, values
+
+    def reset(self, *, seed: int | None = None, options: Any = None) -> tuple[Any, dict]:
+        super().reset(seed=seed)
+        self.t = 0
+        return self.values[0], {}
+
+    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict]:
+        self.t += 1
+        return self.values[self.t % len(self.values)], 0.0, False, self.t >= 10, {}
+
+
+UNBOUNDED = spaces.Box(-np.inf, np.inf, shape=(2,), dtype=np.float64)
+
+
+@pytest.mark.parametrize(
+    ("values", "match"),
+    [
+        ([np.array([0.0, 1.0]), np.array([np.nan, 1.0])], r"warm-up observation array\(\[nan, +1\.\]\) is not in the"),
+        (
+            [np.array([0.0, 1.0]), np.array([0.0, 1.0, 2.0])],
+            r"warm-up observation array\(\[0\., 1\., 2\.\]\) is not in",
+        ),
+        ([np.array([0.0, 1.0]), "up"], r"warm-up observation 'up' is not in the space"),
+    ],
+)
+def test_warm_up_observations_outside_the_space_are_refused_naming_them(values: list[Any], match: str) -> None:
+    with pytest.raises(cehmm.WorldError, match=match):
+        cehmm.PythonWorld(Warm(UNBOUNDED, values), horizon=10)
+
+
+def test_infinite_warm_up_observations_of_an_unbounded_box_fall_in_the_end_bins() -> None:
+    values = [np.array([x, -x]) for x in [0.0, 1.0, 2.0, 3.0, np.inf]]
+    world = cehmm.PythonWorld(Warm(UNBOUNDED, values), observations=Bins(4), horizon=10)
+    edges = world.description["spaces"]["observation"]["edges"]
+    assert all(np.all(np.isfinite(e)) for e in edges)
+    bins = from_record(world.description["spaces"]["observation"], "observation")
+    assert bins.index(np.array([np.inf, -np.inf])) == (len(edges[0])) * (len(edges[1]) + 1)
+
+
+def test_bins_check_observations_against_their_space() -> None:
+    bins = encoding(spaces.Box(0.0, 4.0, shape=(2,), dtype=np.float32), "observation", Bins(4, fit="bounds"))
+    for value in ["ab", np.array([1.0, 2.0, 3.0], dtype=np.float32), np.array([5.0, 1.0], dtype=np.float32), None]:
+        with pytest.raises(cehmm.WorldError, match="is not in the space"):
+            bins.index(value)
+    assert bins.index([1.5, 3.5]) == bins.index(np.array([1.5, 3.5], dtype=np.float32)) == 1 * 4 + 3
+
+
+def test_a_box_of_no_dimensions_has_one_cell_and_one_action() -> None:
+    empty = spaces.Box(-1.0, 1.0, shape=(0,), dtype=np.float32)
+    for choice in (None, Bins(fit="bounds"), Bins(edges=[])):
+        bins = encoding(empty, "observation", choice, lambda steps, seed: [empty.sample() for _ in range(steps)])
+        assert bins.size == 1 and bins.index(np.zeros(0, dtype=np.float32)) == 0
+    grid = encoding(empty, "action")
+    assert grid.size == 1 and empty.contains(grid.value(0))
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: Grid(True), r"invalid Grid values: True \(expected a positive int"),
+        (lambda: Grid(2.5), r"invalid Grid values: 2\.5 \(expected a positive int"),
+        (lambda: Grid(values=[[0.0], "ab"]), r"invalid Grid values\[1\]: 'ab'"),
+        (lambda: Bins(2.5), r"invalid Bins bins: 2\.5 \(expected a positive int"),
+        (lambda: Bins([2, True]), r"invalid Bins bins: \[2, True\]"),
+        (lambda: Bins(edges=5), r"invalid Bins edges: 5 \(expected a list of lists"),
+        (lambda: Bins(edges=[[0.0], "ab"]), r"invalid Bins edges\[1\]: 'ab'"),
+    ],
+)
+def test_bad_encoding_arguments_are_refused_naming_them(make: Any, match: str) -> None:
+    with pytest.raises(cehmm.InvalidArgumentError, match=match):
+        make()
+
+
+def test_records_keep_the_bounds_of_an_integer_box_exactly_and_refuse_bounds_beside_its_dtype() -> None:
+    info = np.iinfo(np.int64)
+    wide = spaces.Box(info.min, info.max, shape=(2,), dtype=np.int64)
+    assert space_of(json.loads(json.dumps(space_record(wide)))) == wide
+    record = space_record(spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32))
+    with pytest.raises(ValueError, match=r"high 1e\+308 is not a bound of float32"):
+        space_of({**record, "high": [1e308]})
+    with pytest.raises(cehmm.PolicyFormatError, match=r"high 1e\+308 is not a bound of float32"):
+        from_record({"encoding": "bins", "edges": [[0.0]], "space": {**record, "high": [1e308]}}, "observation")

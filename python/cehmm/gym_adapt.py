@@ -268,28 +268,43 @@ def adapt(env: Any, horizon: int | None = None, choices: dict[str, Any] | None =
     return adapted, description
 
 
-def _warmup_observations(env: Any, steps: int, seed: int, horizon: int | None) -> np.ndarray:
-    """The observations (rows) met in ``steps`` steps of uniformly random actions in ``env``
-    (an environment, or a vector environment), its episodes reset with seeds ``seed``,
-    ``seed + 1``, ... and cut at ``horizon``."""
+def _warmup_observations(env: Any, steps: int, seed: int, horizon: int | None) -> list[Any]:
+    """The observations met in ``steps`` steps of uniformly random actions in ``env`` (an
+    environment, or a vector environment: each of its observations), as the environment gave
+    them, for :class:`cehmm.spaces.Bins` to check against the space and fit; its episodes reset
+    with seeds ``seed``, ``seed + 1``, ... and cut at ``horizon``."""
     vector = hasattr(env, "num_envs") and hasattr(env, "single_observation_space")
     env.action_space.seed(seed)
-    rows: list[np.ndarray] = []
+    seen: list[Any] = []
     if vector:
         observations, _ = env.reset(seed=seed)
-        while len(rows) < steps:
-            rows.extend(np.asarray(observations, dtype=float).reshape(env.num_envs, -1))
+        while len(seen) < steps:
+            seen.extend(_each(observations, env.num_envs))
             observations, *_ = env.step(env.action_space.sample())
-        return np.asarray(rows[:steps])
+        return seen[:steps]
     episode = 0
-    while len(rows) < steps:
+    while len(seen) < steps:
         observation, _ = env.reset(seed=seed + episode)
         episode += 1
-        rows.append(np.ravel(np.asarray(observation, dtype=float)))
+        seen.append(_kept(observation))
         t, done = 0, False
-        while not done and len(rows) < steps and (horizon is None or t < horizon):
+        while not done and len(seen) < steps and (horizon is None or t < horizon):
             observation, _, terminated, truncated, _ = env.step(env.action_space.sample())
-            rows.append(np.ravel(np.asarray(observation, dtype=float)))
+            seen.append(_kept(observation))
             t += 1
             done = bool(terminated or truncated)
-    return np.asarray(rows)
+    return seen
+
+
+def _kept(observation: Any) -> Any:
+    """An observation kept for later (a copy of an array the environment may write again)."""
+    return observation.copy() if isinstance(observation, np.ndarray) else observation
+
+
+def _each(observations: Any, n: int) -> list[Any]:
+    """The ``n`` observations of a vector environment's batch (the batch itself where it has not
+    ``n``: the check names it)."""
+    try:
+        return [_kept(observations[k]) for k in range(n)] if len(observations) == n else [observations]
+    except (TypeError, IndexError, KeyError):
+        return [observations]

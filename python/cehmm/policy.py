@@ -11,7 +11,7 @@ import numpy as np
 from . import _core
 from ._core import Agent, InvalidArgumentError, PolicyFormatError
 from .backend import Backend
-from .encoded import EnvAgent, recorded
+from .encoded import EnvAgent, policy_encodings
 from .outside import PythonWorld, _is_gym_env
 from .ray_backend import sampled_world
 from .results import Evaluation, ExactValue, Rollout, evaluation
@@ -117,18 +117,22 @@ class Policy:
         """Reads and checks a policy file (JSON, model §6).
 
         Raises:
-            PolicyFormatError: not a valid policy file; the message names the file, the table and
-                what was expected.
+            PolicyFormatError: not a valid policy file; the message names the file, the table (or
+                the field of the world's recorded spaces) and what was expected.
             OSError: the file cannot be read (e.g. ``FileNotFoundError``).
         """
-        return cls(_core.Policy.load(os.fspath(path)))
+        policy = cls(_core.Policy.load(os.fspath(path)))
+        policy._encodings(f"policy file {os.fspath(path)}")
+        return policy
 
     @classmethod
     def from_json(cls, text: str) -> Policy:
         """Reads and checks a policy document (model §6) from its JSON text."""
         if not isinstance(text, str):
             raise TypeError(f"invalid text: {text!r} (expected a str of JSON)")
-        return cls(_core.Policy.from_json(text))
+        policy = cls(_core.Policy.from_json(text))
+        policy._encodings("policy document")
+        return policy
 
     def save(self, path: PathLike, *, overwrite: bool = False) -> None:
         """Writes the policy file (JSON, model §6), atomically (through a temporary file).
@@ -278,8 +282,8 @@ class Policy:
             >>> agent.act(0) in range(world.n_decisions)
             True
         """
+        found = self._encodings()
         agent = Agent(self._core, seed)
-        found = recorded(self.world)
         return agent if found is None else EnvAgent(agent, *found)
 
     def rollout(self, world: Any = None, seed: int = 0, episode: int = 0) -> Rollout:
@@ -299,13 +303,18 @@ class Policy:
 
     def _world(self, world: Any) -> Any:
         if world is not None:
-            found = recorded(self.world) if isinstance(world, str) or _is_gym_env(world) else None
+            found = self._encodings() if isinstance(world, str) or _is_gym_env(world) else None
             # A Gymnasium environment met again: through the encodings the policy was learnt with.
             return world if found is None else PythonWorld(world, observations=found[0], actions=found[1])
         stored = self.world
         if not stored:
             raise InvalidArgumentError("invalid world: None (expected a cehmm world: this policy has no stored world)")
         return World.from_dict(stored)
+
+    def _encodings(self, source: str = "policy") -> tuple[Any, Any] | None:
+        """The encodings of the Gymnasium spaces the policy's world records, checked against it
+        (:func:`cehmm.encoded.policy_encodings`), or None."""
+        return policy_encodings(self.world, self.n_obs, self.n_actions, source)
 
     def __reduce__(self) -> tuple[Any, ...]:
         return (Policy.from_json, (self.to_json(),))

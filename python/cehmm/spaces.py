@@ -28,13 +28,19 @@ the environment returns and answers what its action space holds.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from . import _core
+from . import _core, _sizes
+from ._sizes import INDEX_LIMIT, MAX_INDICES, SHOWN_LIMIT, at_most, counted, counts, dtype_limits, is_int
+from ._sizes import shown as _shown
+from ._space_records import gymnasium as gymnasium
+from ._space_records import gymnasium_spaces, space_record
+from ._space_records import space_of as space_of
 
 #: The most values a finite observation space is flattened over by default (more: hashed).
 MAX_FLAT = 4096
@@ -48,21 +54,6 @@ BINS_CELLS = 64
 WARMUP_STEPS = 2000
 #: Values per dimension of the default :class:`Grid`.
 GRID_VALUES = 5
-#: The most indices the engine takes (its observations are 16-bit).
-MAX_INDICES = 65535
-
-
-def gymnasium() -> Any:
-    """The ``gymnasium`` module, or an ``ImportError`` that says how to install it."""
-    try:
-        import gymnasium
-    except ImportError as e:  # pragma: no cover - the test extra installs it
-        raise ImportError("Gymnasium environments need gymnasium: pip install 'cehmm[gym]'") from e
-    return gymnasium
-
-
-def _gymnasium_spaces() -> Any:
-    return gymnasium().spaces
 
 
 class Encoding:
@@ -71,6 +62,7 @@ class Encoding:
     space: Any
     role: str
     size: int
+    radices: list[int]
 
     def index(self, value: Any) -> int:
         """The index of a value the environment gave (checked to be of the space)."""
@@ -103,6 +95,18 @@ class Encoding:
     def _refuse(self, value: Any) -> None:
         raise _core.WorldError(f"{self.role} {_shown(value)} is not in the space {self.space}")
 
+    def _digits(self, index: int) -> list[int]:
+        """The row-major digits of an index of ``0..size``."""
+        if (
+            isinstance(index, (bool, np.bool_))
+            or not isinstance(index, (int, np.integer))
+            or not 0 <= index < self.size
+        ):
+            raise _core.InvalidArgumentError(
+                f"invalid {self.role} index: {index!r} (expected an int in 0..{self.size - 1})"
+            )
+        return _sizes.unravel(int(index), self.radices)
+
 
 class Flat(Encoding):
     """A finite space flattened to the indices ``0..size`` (module docstring).
@@ -118,25 +122,12 @@ class Flat(Encoding):
     """
 
     def __init__(self, space: Any, role: str = "observation") -> None:
-        spaces = _gymnasium_spaces()
+        spaces = gymnasium_spaces()
         self.space = space
         self.role = role
         self.start: int | None = None
         self.parts: list[Flat] = []
-        if isinstance(space, spaces.Discrete):
-            self.kind = "discrete"
-            self.radices = [int(space.n)]
-            self.start = int(space.start)
-        elif isinstance(space, (spaces.MultiDiscrete, spaces.MultiBinary)):
-            self.kind = "multi"
-            nvec = np.full(space.shape, 2) if isinstance(space, spaces.MultiBinary) else space.nvec
-            self.radices = [int(n) for n in np.ravel(nvec)]
-            self._offset = np.ravel(getattr(space, "start", np.zeros_like(nvec)))
-        elif isinstance(space, spaces.Tuple):
-            self.kind = "tuple"
-            self.parts = [Flat(s, f"{role}[{k}]") for k, s in enumerate(space.spaces)]
-            self.radices = [p.size for p in self.parts]
-        else:
+        if not isinstance(space, (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary, spaces.Tuple)):
             hint = (
                 " is continuous (expected a finite space: a Box is encoded by cehmm.spaces.Bins for observations "
                 "and cehmm.spaces.Grid for actions)"
@@ -144,14 +135,30 @@ class Flat(Encoding):
                 else " (expected Discrete, MultiDiscrete, MultiBinary, a Tuple of them, or a Box)"
             )
             raise _core.InvalidArgumentError(f"invalid {role} space: {space}{hint}")
-        # Exact (Python ints): numpy's int64 product wraps silently past 2**63. A Tuple of
-        # nothing has one value, ().
-        self.size = math.prod(self.radices)
-        if self.size > 2**63 - 1:
+        # From the arithmetic of the sizes, before any list of components is built: a MultiBinary
+        # of 10**10 bits is refused at once, and no size past 2**63 is ever written out.
+        size = _finite_size(space, SHOWN_LIMIT)
+        if size > INDEX_LIMIT:
             raise _core.InvalidArgumentError(
-                f"invalid {role} space: {space} has {self.size} values (at most 2**63 - 1 can be indexed; "
-                "observations that many are hashed: cehmm.spaces.Hashed)"
+                f"invalid {role} space: {space} has {counted(size, '2**63 - 1')} values (at most 2**63 - 1 can be "
+                "indexed; observations that many are hashed: cehmm.spaces.Hashed)"
             )
+        if isinstance(space, spaces.Discrete):
+            self.kind = "discrete"
+            self.radices = [int(space.n)]
+            self.start = int(space.start)
+        elif isinstance(space, spaces.Tuple):
+            self.kind = "tuple"
+            self.parts = [Flat(s, f"{role}[{k}]") for k, s in enumerate(space.spaces)]
+            self.radices = [p.size for p in self.parts]
+        else:
+            self.kind = "multi"
+            binary = isinstance(space, spaces.MultiBinary)
+            self.radices = [2] * math.prod(space.shape) if binary else [int(n) for n in np.ravel(space.nvec)]
+            # Python ints: exact whatever the dtype (an int8 value minus its start may not fit int8).
+            self._offset = [0] * len(self.radices) if binary else [int(s) for s in np.ravel(space.start)]
+        # A Tuple of nothing has one value, ().
+        self.size = math.prod(self.radices)
 
     def index(self, value: Any) -> int:
         self.check(value)
@@ -161,16 +168,18 @@ class Flat(Encoding):
         if self.kind == "discrete":
             return int(value) - int(self.start or 0)
         if self.kind == "tuple":
-            return int(np.ravel_multi_index([p._index(v) for p, v in zip(self.parts, value)], self.radices))
-        return int(np.ravel_multi_index(np.ravel(value) - self._offset, self.radices))
+            return _sizes.ravel([p._index(v) for p, v in zip(self.parts, value)], self.radices)
+        # A MultiBinary's value may be floats (0.0 and 1.0 are in it): read as the ints they are.
+        return _sizes.ravel([int(x) - s for x, s in zip(np.ravel(value).tolist(), self._offset)], self.radices)
 
     def value(self, index: int) -> Any:
+        digits = self._digits(index)
         if self.kind == "discrete":
-            return int(self.start or 0) + int(index)
-        digits = np.unravel_index(int(index), self.radices)
+            return int(self.start or 0) + digits[0]
         if self.kind == "tuple":
             return tuple(p.value(d) for p, d in zip(self.parts, digits))
-        return (np.asarray(digits) + self._offset).astype(self.space.dtype).reshape(self.space.shape)
+        values = [d + s for d, s in zip(digits, self._offset)]
+        return np.array(values, dtype=self.space.dtype).reshape(self.space.shape)
 
     def record(self) -> dict[str, Any]:
         return {"encoding": "flat", "space": space_record(self.space)}
@@ -195,7 +204,7 @@ class Hashed(Encoding):
         self.space = space
         self.role = role
         # A value's components, read the same way at every step: made once.
-        self._digits = None if space is None else _digits_of(space, role)
+        self._components = None if space is None else _digits_of(space, role)
 
     def fit(self, space: Any, role: str) -> Hashed:
         """This encoding for ``space``: it must be finite (``Discrete``, ``MultiDiscrete``,
@@ -203,9 +212,9 @@ class Hashed(Encoding):
         return Hashed(self.size, space, role)
 
     def index(self, value: Any) -> int:
-        assert self._digits is not None, "an unfitted Hashed has no space"
+        assert self._components is not None, "an unfitted Hashed has no space"
         self.check(value)
-        digits = np.asarray(self._digits(value), dtype="<i8")
+        digits = np.asarray(self._components(value), dtype="<i8")
         digest = hashlib.blake2b(digits.tobytes(), digest_size=8).digest()
         return int.from_bytes(digest, "little") % self.size
 
@@ -215,7 +224,7 @@ class Hashed(Encoding):
 
 def _digits_of(space: Any, role: str) -> Callable[[Any], list[int]]:
     """The components of a finite space's values, in row-major order."""
-    spaces = _gymnasium_spaces()
+    spaces = gymnasium_spaces()
     if isinstance(space, spaces.Discrete):
         return lambda v: [int(v)]
     if isinstance(space, (spaces.MultiDiscrete, spaces.MultiBinary)):
@@ -236,9 +245,13 @@ class Bins(Encoding):
 
     * ``Bins()``: the default, ``bins`` from :data:`BINS_CELLS`, edges at quantiles of the
       observations met in ``warmup`` steps of uniformly random actions (episodes reset with seeds
-      ``seed``, ``seed + 1``, ...);
+      ``seed``, ``seed + 1``, ...; their infinite values, which an unbounded ``Box`` holds, fall
+      in the end bins);
     * ``Bins(8, fit="bounds")``: edges evenly between the space's (finite) bounds;
     * ``Bins(edges=[[...], [...]])``: one sorted list per dimension.
+
+    Its observations are checked against the space (its shape, its bounds, no NaN; an array's
+    dtype as ``Box.contains`` checks it, a list's numbers as numbers).
 
     Example:
         >>> from gymnasium.spaces import Box
@@ -251,86 +264,127 @@ class Bins(Encoding):
         bins: int | Sequence[int] | None = None,
         *,
         fit: str = "quantiles",
-        edges: Sequence[Sequence[float]] | None = None,
+        edges: Sequence[Any] | None = None,
         warmup: int = WARMUP_STEPS,
         seed: int = 0,
         space: Any = None,
         role: str = "observation",
     ) -> None:
-        if fit not in ("quantiles", "bounds"):
-            raise _core.InvalidArgumentError(f"invalid Bins fit: {fit!r} (expected 'quantiles' or 'bounds')")
-        if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 1:
-            raise _core.InvalidArgumentError(f"invalid Bins warmup: {warmup!r} (expected a positive int of steps)")
+        if not isinstance(fit, str) or fit not in ("quantiles", "bounds"):
+            raise _core.InvalidArgumentError(f"invalid Bins fit: {_shown(fit)} (expected 'quantiles' or 'bounds')")
+        if not is_int(warmup) or warmup < 1:
+            raise _core.InvalidArgumentError(
+                f"invalid Bins warmup: {_shown(warmup)} (expected a positive int of steps)"
+            )
+        if not is_int(seed):
+            raise _core.InvalidArgumentError(f"invalid Bins seed: {_shown(seed)} (expected an int)")
+        if not (bins is None or counts(bins)):
+            raise _core.InvalidArgumentError(
+                f"invalid Bins bins: {_shown(bins)} (expected a positive int, at most {MAX_INDICES}, or a list of one "
+                "per dimension)"
+            )
         self.bins, self.fit_from, self.warmup, self.seed = bins, fit, int(warmup), int(seed)
-        self.space, self.role = space, role
+        self.space, self.role = _box(space, role, "Bins"), role
         self.edges: list[np.ndarray] | None = None
         if edges is not None:
-            self.edges = [np.asarray(e, dtype=float) for e in edges]
+            given = _sizes.lists(edges, "Bins edges", "a list of lists of numbers, one per dimension")
+            # The size from the lists' lengths, before any is read as numbers.
+            self.size = at_most((len(e) + 1 for e in given), "cells", role, f"Bins of {space or 'edges'}", _FEWER_BINS)
+            self.edges = [
+                _sizes.numbers(e, f"Bins edges[{i}]", "finite numbers in increasing order") for i, e in enumerate(given)
+            ]
             for i, e in enumerate(self.edges):
-                if e.ndim != 1 or not np.all(np.isfinite(e)) or np.any(np.diff(e) <= 0):
+                if np.any(np.diff(e) <= 0):
                     raise _core.InvalidArgumentError(
                         f"invalid Bins edges[{i}]: {_shown(e.tolist())} (expected finite numbers in increasing order)"
                     )
             self.radices = [len(e) + 1 for e in self.edges]
-            self.size = math.prod(self.radices)
+            if space is not None:
+                _per_dimension(len(self.edges), space, "Bins edges")
 
     def needs_warmup(self) -> bool:
         """Whether fitting reads observations of a warm-up."""
         return self.edges is None and self.fit_from == "quantiles"
 
-    def fit(self, space: Any, role: str, sample: Callable[[int, int], np.ndarray] | None = None) -> Bins:
-        """This encoding for the ``Box`` ``space``; ``sample(steps, seed)`` gives observations
-        (rows) of a warm-up where the edges are quantiles."""
-        spaces = _gymnasium_spaces()
-        if not isinstance(space, spaces.Box):
-            raise _core.InvalidArgumentError(f"invalid {role} encoding: Bins of {space} (expected a Box space)")
-        dims = int(np.prod(space.shape))
-        if self.edges is not None:
-            edges = self.edges
-        else:
-            bins = self._bins(dims, role)
-            low, high = np.ravel(space.low).astype(float), np.ravel(space.high).astype(float)
-            if self.fit_from == "bounds":
-                if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
-                    raise _core.InvalidArgumentError(
-                        f'invalid {role} encoding: Bins(fit="bounds") of {space}, whose bounds are not all finite '
-                        '(expected fit="quantiles" or edges=...)'
-                    )
-                edges = [np.linspace(lo, hi, b + 1)[1:-1] for lo, hi, b in zip(low, high, bins)]
-            else:
-                assert sample is not None, "a quantile fit needs a warm-up"
-                seen = np.asarray(sample(self.warmup, self.seed), dtype=float).reshape(-1, dims)
-                edges = [np.unique(np.quantile(seen[:, i], np.linspace(0, 1, b + 1)[1:-1])) for i, b in enumerate(bins)]
-        if len(edges) != dims:
-            raise _core.InvalidArgumentError(
-                f"invalid Bins edges: {len(edges)} lists for {space} (expected one per dimension, {dims})"
-            )
-        fitted = Bins(edges=[e.tolist() for e in edges], space=space, role=role)
-        if fitted.size > MAX_INDICES:
-            raise _core.InvalidArgumentError(
-                f"invalid {role} encoding: {fitted.size} cells of {space} (at most {MAX_INDICES}: fewer bins, or a "
-                "wrapper that keeps the dimensions that matter)"
-            )
-        return fitted
+    def fit(self, space: Any, role: str, sample: Callable[[int, int], Sequence[Any]] | None = None) -> Bins:
+        """This encoding for the ``Box`` ``space``; ``sample(steps, seed)`` gives the observations
+        of a warm-up (as the environment gave them) where the edges are quantiles.
 
-    def _bins(self, dims: int, role: str) -> list[int]:
+        Raises:
+            InvalidArgumentError: not a ``Box``, or too many cells (from the arithmetic of the
+                bins, before any warm-up).
+            WorldError: an observation of the warm-up that is not in the space.
+        """
+        _box(space, role, "Bins")
+        if self.edges is not None:
+            return Bins(edges=self.edges, space=space, role=role)
+        dims = _dims(space)
+        bins = self._bins(dims, space, role)
+        if self.fit_from == "bounds":
+            low, high = np.ravel(space.low).astype(float), np.ravel(space.high).astype(float)
+            if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+                raise _core.InvalidArgumentError(
+                    f'invalid {role} encoding: Bins(fit="bounds") of {space}, whose bounds are not all finite '
+                    '(expected fit="quantiles" or edges=...)'
+                )
+            edges = [np.linspace(lo, hi, b + 1)[1:-1] for lo, hi, b in zip(low, high, bins)]
+        elif dims == 0:
+            edges = []
+        else:
+            assert sample is not None, "a quantile fit needs a warm-up"
+            warm = Bins(space=space, role=f"warm-up {role}")
+            seen = []
+            for observation in sample(self.warmup, self.seed):
+                warm.check(observation)
+                seen.append(np.ravel(np.asarray(observation, dtype=float)))
+            columns = np.reshape(seen, (-1, dims)).T
+            edges = [_quantiles(c[np.isfinite(c)], b) for c, b in zip(columns, bins)]
+        return Bins(edges=edges, space=space, role=role)
+
+    def _bins(self, dims: int, space: Any, role: str) -> list[int]:
+        """The bins of each dimension, their product checked before any edge is made."""
         if self.bins is None:
-            per = max((b for b in range(2, 17) if b**dims <= BINS_CELLS), default=2)
-            return [per] * dims
-        bins = [self.bins] * dims if isinstance(self.bins, (int, np.integer)) else list(self.bins)
-        if len(bins) != dims or any(isinstance(b, bool) or not isinstance(b, (int, np.integer)) or b < 1 for b in bins):
-            raise _core.InvalidArgumentError(
-                f"invalid Bins bins: {self.bins!r} (expected a positive int, or one per dimension: {dims})"
-            )
-        return [int(b) for b in bins]
+            # The most b <= 16 with b**dims <= BINS_CELLS, from products that stop at the bound.
+            fitting = (b for b in range(2, 17) if _sizes.product(itertools.repeat(b, dims), BINS_CELLS) <= BINS_CELLS)
+            each = max(fitting, default=2)
+        elif is_int(self.bins):
+            each = int(self.bins)  # type: ignore[arg-type]
+        else:
+            bins = [int(b) for b in self.bins]  # type: ignore[union-attr]
+            if len(bins) != dims:
+                raise _core.InvalidArgumentError(
+                    f"invalid Bins bins: {_shown(self.bins)} (expected a positive int, or one per dimension: {dims})"
+                )
+            at_most(bins, "cells", role, f"Bins({bins}) of {space}", _FEWER_BINS)
+            return bins
+        subject = f"{each} bins in each of the {dims} dimensions of {space}"
+        at_most(itertools.repeat(each, dims), "cells", role, subject, _FEWER_BINS)
+        return [each] * dims
+
+    def check(self, value: Any) -> None:
+        if isinstance(value, (np.ndarray, np.generic)):
+            x = np.asarray(value)
+            if x.dtype.kind in "biuf" and not np.can_cast(x.dtype, self.space.dtype):
+                raise _core.WorldError(
+                    f"{self.role} {_shown(value)} is not in the space {self.space}: {x.dtype} does not cast safely to "
+                    f"{self.space.dtype} (Box.contains)"
+                )
+            super().check(x)
+            return
+        # A list (or a Python number) has no dtype: its numbers, against the shape and the bounds.
+        read = _sizes.reals(value)
+        if (
+            read is None
+            or read.shape != self.space.shape
+            or not np.all((read >= self.space.low) & (read <= self.space.high))
+        ):
+            self._refuse(value)
 
     def index(self, value: Any) -> int:
         assert self.edges is not None, "an unfitted Bins has no cells"
-        x = _floats(value)
-        if x is None or x.shape != tuple(self.space.shape) or not np.all(np.isfinite(x)):
-            self._refuse(value)
-        digits = [int(np.searchsorted(e, v, side="right")) for e, v in zip(self.edges, np.ravel(x))]
-        return int(np.ravel_multi_index(digits, self.radices))
+        self.check(value)
+        x = np.ravel(np.asarray(value, dtype=float))
+        return _sizes.ravel([int(np.searchsorted(e, v, side="right")) for e, v in zip(self.edges, x)], self.radices)
 
     def record(self) -> dict[str, Any]:
         assert self.edges is not None
@@ -339,8 +393,10 @@ class Bins(Encoding):
 
 class Grid(Encoding):
     """A ``Box`` action as a finite set: dimension ``i`` takes one of ``values[i]`` (by default
-    ``values`` evenly spaced values between its finite bounds, both included), a decision the
-    row-major index of the choices. Unfitted: ``Grid()``, ``Grid(9)``, ``Grid(values=[[-2, 0, 2]])``.
+    ``values`` evenly spaced values between its finite bounds, both included; of an integer
+    ``Box``, those rounded to integers), a decision the row-major index of the choices. Unfitted:
+    ``Grid()``, ``Grid(9)``, ``Grid(values=[[-2, 0, 2]])``; given values must be of the space
+    (within its bounds, integers for an integer ``Box``): none is cast.
 
     Example:
         >>> from gymnasium.spaces import Box
@@ -350,66 +406,86 @@ class Grid(Encoding):
 
     def __init__(
         self,
-        values: int | Sequence[Sequence[float]] = GRID_VALUES,
+        values: int | Sequence[Any] = GRID_VALUES,
         *,
         space: Any = None,
         role: str = "action",
     ) -> None:
-        self.space, self.role = space, role
+        self.space, self.role = _box(space, role, "Grid"), role
         self.count: int | None = None
         self.values: list[np.ndarray] | None = None
-        if isinstance(values, (int, np.integer)) and not isinstance(values, bool):
-            if values < 1:
-                raise _core.InvalidArgumentError(f"invalid Grid values: {values!r} (expected a positive int)")
-            self.count = int(values)
-        else:
-            self.values = [np.asarray(v, dtype=float) for v in values]
-            if any(v.ndim != 1 or v.size == 0 or not np.all(np.isfinite(v)) for v in self.values):
+        if is_int(values):
+            if not 1 <= values <= MAX_INDICES:  # type: ignore[operator]
                 raise _core.InvalidArgumentError(
-                    f"invalid Grid values: {_shown(values)} (expected a non-empty list of finite numbers a dimension)"
+                    f"invalid Grid values: {values!r} (expected a positive int of values a dimension, at most "
+                    f"{MAX_INDICES}, or a list of values a dimension)"
                 )
-            self.radices = [len(v) for v in self.values]
-            self.size = math.prod(self.radices)
+            self.count = int(values)  # type: ignore[arg-type]
+            return
+        given = _sizes.lists(values, "Grid values", "a positive int, or a list of values a dimension")
+        self.size = at_most((len(v) for v in given), "actions", role, f"Grid of {space or 'values'}", "fewer values")
+        expected = "a non-empty list of finite numbers"
+        self.values = [_sizes.numbers(v, f"Grid values[{i}]", expected, least=1) for i, v in enumerate(given)]
+        self.radices = [len(v) for v in self.values]
+        if space is not None:
+            self._check_in(space, role)
+
+    def _check_in(self, space: Any, role: str) -> None:
+        """Refuses values that are not of ``space``: one list per dimension, each value within the
+        dimension's bounds and of the space's dtype (an integer for an integer ``Box``)."""
+        assert self.values is not None
+        _per_dimension(len(self.values), space, "Grid values")
+        integer = space.dtype.kind in "biu"
+        kind = "an integer" if integer else f"a {space.dtype} number"
+        limits = dtype_limits(space.dtype)
+        for i, (v, lo, hi) in enumerate(zip(self.values, np.ravel(space.low).tolist(), np.ravel(space.high).tolist())):
+            lo, hi = max(lo, limits[0]), min(hi, limits[1])
+            for x in v.tolist():
+                outside = (x != round(x) or not lo <= round(x) <= hi) if integer else not lo <= x <= hi
+                if outside:
+                    raise _core.InvalidArgumentError(
+                        f"invalid Grid values[{i}]: {x!r} (expected {kind} in [{lo}, {hi}]: dimension {i} of the "
+                        f"{role} space {space})"
+                    )
 
     def fit(self, space: Any, role: str) -> Grid:
-        """This encoding for the ``Box`` ``space``."""
-        spaces = _gymnasium_spaces()
-        if not isinstance(space, spaces.Box):
-            raise _core.InvalidArgumentError(f"invalid {role} encoding: Grid of {space} (expected a Box space)")
-        dims = int(np.prod(space.shape))
-        if self.values is None:
-            low, high = np.ravel(space.low).astype(float), np.ravel(space.high).astype(float)
-            if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
-                raise _core.InvalidArgumentError(
-                    f"invalid {role} space: {space} has bounds that are not finite (expected Grid(values=[[...], ...]))"
-                )
-            values = [np.linspace(lo, hi, self.count or GRID_VALUES) for lo, hi in zip(low, high)]
-        else:
-            values = self.values
-        if len(values) != dims:
+        """This encoding for the ``Box`` ``space``.
+
+        Raises:
+            InvalidArgumentError: not a ``Box``, too many actions (from the arithmetic of the
+                values, before any is made), or values that are not of the space.
+        """
+        _box(space, role, "Grid")
+        if self.values is not None:
+            return Grid(self.values, space=space, role=role)
+        count, dims = self.count or GRID_VALUES, _dims(space)
+        subject = f"{count} values in each of the {dims} dimensions of {space}"
+        at_most(itertools.repeat(count, dims), "actions", role, subject, "fewer values")
+        low, high = np.ravel(space.low).astype(float), np.ravel(space.high).astype(float)
+        if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
             raise _core.InvalidArgumentError(
-                f"invalid Grid values: {len(values)} lists for {space} (expected one per dimension, {dims})"
+                f"invalid {role} space: {space} has bounds that are not finite (expected Grid(values=[[...], ...]))"
             )
-        fitted = Grid([v.tolist() for v in values], space=space, role=role)
-        if fitted.size > MAX_INDICES:
-            raise _core.InvalidArgumentError(
-                f"invalid {role} encoding: {fitted.size} actions of {space} (at most {MAX_INDICES}: fewer values)"
-            )
-        return fitted
+        values = [np.linspace(lo, hi, count) for lo, hi in zip(low, high)]
+        if space.dtype.kind in "biu":
+            # Integers only: the rounded values that are of the space (a bound past 2**53 is not a float).
+            exact = zip(values, np.ravel(space.low).tolist(), np.ravel(space.high).tolist())
+            values = [np.array([x for x in np.unique(np.round(v)) if lo <= int(x) <= hi]) for v, lo, hi in exact]
+        return Grid(values, space=space, role=role)
 
     def index(self, value: Any) -> int:
         """The index of the grid's nearest action (each dimension's nearest value)."""
         assert self.values is not None
-        x = np.ravel(np.asarray(value, dtype=float))
-        if x.size != len(self.values):
+        x = _sizes.reals(value)
+        if x is None or x.size != len(self.values) or not np.all(np.isfinite(x)):
             self._refuse(value)
-        digits = [int(np.argmin(np.abs(v - c))) for v, c in zip(self.values, x)]
-        return int(np.ravel_multi_index(digits, self.radices))
+        assert x is not None
+        digits = [int(np.argmin(np.abs(v - c))) for v, c in zip(self.values, np.ravel(x))]
+        return _sizes.ravel(digits, self.radices)
 
     def value(self, index: int) -> Any:
         assert self.values is not None
-        digits = np.unravel_index(int(index), self.radices)
-        chosen = np.array([v[d] for v, d in zip(self.values, digits)])
+        chosen = np.array([v[d] for v, d in zip(self.values, self._digits(index))])
         return chosen.astype(self.space.dtype).reshape(self.space.shape)
 
     def record(self) -> dict[str, Any]:
@@ -421,7 +497,7 @@ def encoding(
     space: Any,
     role: str,
     choice: Any = None,
-    sample: Callable[[int, int], np.ndarray] | None = None,
+    sample: Callable[[int, int], Sequence[Any]] | None = None,
 ) -> Encoding:
     """The fitted encoding of ``space`` (``role``: ``"observation"`` or ``"action"``) from the
     user's ``choice`` (``None``: the default of the module docstring; an encoding, fitted or
@@ -431,14 +507,15 @@ def encoding(
         >>> from gymnasium.spaces import Box, Discrete
         >>> type(encoding(Discrete(5), "observation")).__name__, type(encoding(Box(-1.0, 1.0), "action")).__name__
         ('Flat', 'Grid')
-        >>> encoding(Box(-1.0, 1.0, shape=(2,)), "observation", Bins(4, fit="bounds")).index(np.array([0.1, -0.9]))
+        >>> bins = encoding(Box(-1.0, 1.0, shape=(2,)), "observation", Bins(4, fit="bounds"))
+        >>> bins.index(np.array([0.1, -0.9], dtype=np.float32))
         8
     """
-    spaces = _gymnasium_spaces()
+    spaces = gymnasium_spaces()
     if choice is None:
         if isinstance(space, spaces.Box):
             choice = Bins() if role == "observation" else Grid()
-        elif role == "observation" and _finite_size(space) > MAX_FLAT:
+        elif role == "observation" and _finite_size(space, MAX_FLAT) > MAX_FLAT:
             choice = Hashed()
         else:
             return Flat(space, role)
@@ -456,95 +533,59 @@ def encoding(
         if role != "action":
             raise _core.InvalidArgumentError(f"invalid {role} encoding: Grid (expected Flat, Hashed or Bins)")
         return choice.fit(space, role)
-    if choice == "flat":
+    if isinstance(choice, str) and choice == "flat":
         return Flat(space, role)
     raise TypeError(
-        f"invalid {role}s: {choice!r} (expected None, 'flat' or a cehmm.spaces encoding: Flat, Hashed, Bins, Grid)"
+        f"invalid {role}s: {_shown(choice)} (expected None, 'flat' or a cehmm.spaces encoding: Flat, Hashed, Bins, "
+        "Grid)"
     )
 
 
-def _finite_size(space: Any) -> int:
-    """The values of a finite space (0 where it is not one of the finite kinds: Flat names it)."""
-    spaces = _gymnasium_spaces()
+# -- the checks of spaces and their sizes (the arithmetic: cehmm._sizes) -----------------------------
+
+_FEWER_BINS = "fewer bins, or a wrapper that keeps the dimensions that matter"
+
+
+def _finite_size(space: Any, cap: int) -> int:
+    """The values of a finite space, or ``cap + 1`` past ``cap`` (0 where it is not one of the
+    finite kinds: Flat names it)."""
+    spaces = gymnasium_spaces()
     if isinstance(space, spaces.Discrete):
-        return int(space.n)
+        return min(int(space.n), cap + 1)
     if isinstance(space, spaces.MultiDiscrete):
-        return math.prod(int(n) for n in np.ravel(space.nvec))
+        return _sizes.product(np.ravel(space.nvec).tolist(), cap)
     if isinstance(space, spaces.MultiBinary):
-        return 2 ** int(np.prod(space.shape))
+        return _sizes.product(itertools.repeat(2, math.prod(space.shape)), cap)
     if isinstance(space, spaces.Tuple):
-        return math.prod(_finite_size(s) for s in space.spaces)
+        return _sizes.product((_finite_size(s, cap) for s in space.spaces), cap)
     return 0
 
 
-# -- records: what a policy file holds --------------------------------------------------------------
+def _dims(space: Any) -> int:
+    """The dimensions of a ``Box`` (its shape's product, 0 for an empty one)."""
+    return math.prod(space.shape)
 
 
-def space_record(space: Any) -> dict[str, Any]:
-    """A Gymnasium space as JSON (infinite bounds as the strings ``"inf"``, ``"-inf"``)."""
-    spaces = _gymnasium_spaces()
-    if isinstance(space, spaces.Discrete):
-        return {"type": "Discrete", "n": int(space.n), "start": int(space.start)}
-    if isinstance(space, spaces.MultiDiscrete):
-        return {
-            "type": "MultiDiscrete",
-            "nvec": space.nvec.tolist(),
-            "start": space.start.tolist(),
-            "dtype": str(space.dtype),
-        }
-    if isinstance(space, spaces.MultiBinary):
-        return {"type": "MultiBinary", "n": space.n if isinstance(space.n, int) else [int(k) for k in space.n]}
-    if isinstance(space, spaces.Tuple):
-        return {"type": "Tuple", "spaces": [space_record(s) for s in space.spaces]}
-    if isinstance(space, spaces.Box):
-        return {
-            "type": "Box",
-            "low": _finite_or_text(space.low),
-            "high": _finite_or_text(space.high),
-            "shape": list(space.shape),
-            "dtype": str(space.dtype),
-        }
-    raise _core.InvalidArgumentError(
-        f"invalid space: {space} (expected Discrete, MultiDiscrete, MultiBinary, Tuple or Box)"
-    )
+def _per_dimension(lists: int, space: Any, name: str) -> None:
+    """Refuses a number of lists that is not one per dimension of ``space``."""
+    if lists != _dims(space):
+        raise _core.InvalidArgumentError(
+            f"invalid {name}: {lists} lists for {space} (expected one per dimension, {_dims(space)})"
+        )
 
 
-def _finite_or_text(bounds: np.ndarray) -> list[Any]:
-    return [float(b) if np.isfinite(b) else ("inf" if b > 0 else "-inf") for b in np.ravel(bounds)]
+def _box(space: Any, role: str, name: str) -> Any:
+    """``space`` (or None), refused unless it is a ``Box``."""
+    if space is not None and not isinstance(space, gymnasium_spaces().Box):
+        raise _core.InvalidArgumentError(f"invalid {role} encoding: {name} of {space} (expected a Box space)")
+    return space
 
 
-def space_of(record: dict[str, Any]) -> Any:
-    """The Gymnasium space of a :func:`space_record`."""
-    spaces = _gymnasium_spaces()
-    kind = record.get("type")
-    if kind == "Discrete":
-        return spaces.Discrete(int(record["n"]), start=int(record["start"]))
-    if kind == "MultiDiscrete":
-        return spaces.MultiDiscrete(record["nvec"], dtype=record["dtype"], start=record["start"])
-    if kind == "MultiBinary":
-        return spaces.MultiBinary(record["n"])
-    if kind == "Tuple":
-        return spaces.Tuple([space_of(s) for s in record["spaces"]])
-    if kind == "Box":
-        shape, dtype = tuple(record["shape"]), np.dtype(record["dtype"])
-        low = np.array([float(b) for b in record["low"]], dtype=dtype).reshape(shape)
-        high = np.array([float(b) for b in record["high"]], dtype=dtype).reshape(shape)
-        return spaces.Box(low, high, shape=shape, dtype=dtype)
-    raise _core.PolicyFormatError(f"invalid space record: {_shown(record)} (expected a type Discrete, ..., Box)")
+def _quantiles(column: np.ndarray, bins: int) -> np.ndarray:
+    """The edges of ``bins`` bins at quantiles of ``column`` (none where it is empty)."""
+    if column.size == 0:
+        return np.empty(0)
+    return np.unique(np.quantile(column, np.linspace(0, 1, bins + 1)[1:-1]))
 
 
-def _floats(value: Any) -> np.ndarray | None:
-    """A value as an array of floats, or None where it is not numbers."""
-    try:
-        return np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        return None
-
-
-def _shown(value: Any) -> str:
-    """A value as an error shows it: its repr, cut at 80 characters."""
-    text = repr(value)
-    return text if len(text) <= 80 else text[:79] + "…"
-
-
-__all__: Iterable[str] = ["Bins", "Flat", "Grid", "Hashed", "encoding"]
+__all__ = ["Bins", "Flat", "Grid", "Hashed", "encoding"]
