@@ -133,13 +133,13 @@ def test_a_grid_answers_actions_of_the_space() -> None:
 def test_large_finite_observations_are_hashed_into_a_bounded_table() -> None:
     board = spaces.MultiDiscrete([3] * 52)
     hashed = encoding(board, "observation")
-    assert isinstance(hashed, Hashed) and hashed.size == 256
+    assert isinstance(hashed, Hashed) and hashed.size == 128
     board.seed(0)
     values = [board.sample() for _ in range(2000)]
     cells = [hashed.index(v) for v in values]
     # Deterministic (BLAKE2b, not Python's hash), spread over the table.
     assert cells == [hashed.index(v.copy()) for v in values]
-    assert min(cells) >= 0 and max(cells) < 256 and len(set(cells)) == 256
+    assert min(cells) >= 0 and max(cells) < 128 and len(set(cells)) == 128
     assert encoding(spaces.MultiDiscrete([13, 13]), "observation").size == 169  # small: flattened
     with pytest.raises(cehmm.WorldError, match="is not in the space"):
         hashed.index(np.full(52, 3))
@@ -252,7 +252,10 @@ def test_a_controller_whose_policy_file_may_not_fit_is_refused_before_the_search
     # 64 Mealy nodes (the registers' turn) on 1024 cells and 104 decisions: up to 6656 pairs,
     # 437 million entries; refused naming the nodes and what to change, before any episode.
     big = cehmm.PythonWorld(Board(), observations=Hashed(1024), horizon=10)
-    with pytest.raises(cehmm.InvalidArgumentError, match=r"invalid nodes: 64 with Mealy decisions.*Hashed\(k\)"):
+    with pytest.raises(
+        cehmm.InvalidArgumentError,
+        match=r"invalid registers: registers 3 of register_size 4 \(64 nodes\) with Mealy decisions.*Hashed\(k\)",
+    ):
         cehmm.optimize_controller(big, max_iterations=1, progress=False)
 
 

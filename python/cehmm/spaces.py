@@ -9,7 +9,7 @@ map to them through an encoding of its space, chosen by :class:`~cehmm.PythonWor
   ``Discrete(n, start)`` gives ``x - start``; a ``MultiDiscrete`` or ``MultiBinary`` its
   components in row-major order (the last one varying fastest, as ``numpy.ravel_multi_index``);
   a ``Tuple`` its components' indices in the same order. Exact both ways.
-* :class:`Hashed` (finite observations with more values, the default there: ``Hashed(256)``):
+* :class:`Hashed` (finite observations with more values, the default there: ``Hashed(128)``):
   the values' components hashed (BLAKE2b) into ``size`` cells. Values that share a cell look
   the same to the policy.
 * :class:`Bins` (``Box`` observations, the default there): each dimension cut at edges, the cell
@@ -44,9 +44,10 @@ from ._space_records import space_of as space_of
 
 #: The most values a finite observation space is flattened over by default (more: hashed).
 MAX_FLAT = 4096
-#: The cells of the default :class:`Hashed` encoding: a 64-node Mealy controller over 256 cells
-#: and 104 decisions saves as at most 109 million entries (model §8), within the engine's bound.
-HASHED_CELLS = 256
+#: The cells of the default :class:`Hashed` encoding: a 64-node Mealy controller over 128 cells
+#: and 104 decisions (POPGym's Concentration) saves as at most 55 million entries, a policy file
+#: of at most about 220 MB, which the engine reads back (model §8).
+HASHED_CELLS = 128
 #: The most cells of a default :class:`Bins` encoding (bins per dimension: the most ``b <= 16``
 #: with ``b ** dims <= 64``, at least 2).
 BINS_CELLS = 64
