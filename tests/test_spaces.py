@@ -483,6 +483,11 @@ def test_bins_check_observations_against_their_space() -> None:
         with pytest.raises(cehmm.WorldError, match="is not in the space"):
             bins.index(value)
     assert bins.index([1.5, 3.5]) == bins.index(np.array([1.5, 3.5], dtype=np.float32)) == 1 * 4 + 3
+    # float64 values for a float32 Box (which Box.contains refuses, and Gymnasium's checker only
+    # warns of) are read as the numbers they are; NaN is not a number in the space.
+    assert bins.index(np.array([1.5, 3.5])) == 1 * 4 + 3
+    with pytest.raises(cehmm.WorldError, match="is not in the space"):
+        bins.index(np.array([np.nan, 1.0]))
 
 
 def test_a_box_of_no_dimensions_has_one_cell_and_one_action() -> None:

@@ -251,8 +251,8 @@ class Bins(Encoding):
     * ``Bins(8, fit="bounds")``: edges evenly between the space's (finite) bounds;
     * ``Bins(edges=[[...], [...]])``: one sorted list per dimension.
 
-    Its observations are checked against the space (its shape, its bounds, no NaN; an array's
-    dtype as ``Box.contains`` checks it, a list's numbers as numbers).
+    Its observations are checked against the space (its shape, its bounds, no NaN), their
+    numbers whatever their dtype (float64 values for a float32 ``Box`` are read).
 
     Example:
         >>> from gymnasium.spaces import Box
@@ -363,16 +363,12 @@ class Bins(Encoding):
         return [each] * dims
 
     def check(self, value: Any) -> None:
-        if isinstance(value, (np.ndarray, np.generic)):
-            x = np.asarray(value)
-            if x.dtype.kind in "biuf" and not np.can_cast(x.dtype, self.space.dtype):
-                raise _core.WorldError(
-                    f"{self.role} {_shown(value)} is not in the space {self.space}: {x.dtype} does not cast safely to "
-                    f"{self.space.dtype} (Box.contains)"
-                )
-            super().check(x)
+        if isinstance(value, (np.ndarray, np.generic)) and np.asarray(value).dtype.kind not in "biuf":
+            super().check(np.asarray(value))
             return
-        # A list (or a Python number) has no dtype: its numbers, against the shape and the bounds.
+        # Its numbers, against the shape and the bounds, whatever their dtype: an environment
+        # that returns float64 values for a float32 Box (a common slip, which Gymnasium's own
+        # checker only warns of) is read, as long as the values are in the space.
         read = _sizes.reals(value)
         if (
             read is None
