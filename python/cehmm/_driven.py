@@ -2,8 +2,9 @@
 per-iteration hook; their files held with the run's checkpoint to the one rule of a run's outputs
 before the first iteration (:func:`check_outputs`); the result given to the callbacks and the
 callbacks closed without losing the result or the run's own error; and the run's signals: with a
-checkpoint, SIGTERM stops the run like Ctrl-C and then ends the process, and a signal a callback
-sends to its own process is seen before the next iteration (:class:`Signals`). :mod:`cehmm.callbacks`
+checkpoint, SIGTERM stops the run like Ctrl-C and then ends the process (:class:`Signals`; a
+signal a callback sends to its own process is seen before the next iteration by the bindings,
+which run the handlers after every callback). :mod:`cehmm.callbacks`
 states these rules for the user; this module is where each is kept.
 """
 

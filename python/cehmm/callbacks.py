@@ -311,9 +311,8 @@ class SaveBest(Callback):
     below the policy saved (its record's ``score``, what the optimiser chooses by) does not write
     over it, and once the optimiser returns, the file holds the result's own policy
     (:meth:`on_result`). ``{iteration}`` in the file's name makes a series of files, one per save,
-    numbered by the step counted on across the runs of the call (TensorBoard's step: ``{iteration}``
-    of the second run goes on from the first's last; and on across later calls of the same
-    ``SaveBest``, so that no name is written twice; a resumed run counts from where it resumed),
+    numbered by the record's ``step``, counted on across the runs of the call and kept across a
+    resume (TensorBoard's step: ``{iteration}`` of the second run goes on from the first's last),
     and ``{run}`` by the run's index among the restarts; each holds its run's best so far at that
     step.
 

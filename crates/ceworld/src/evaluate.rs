@@ -205,6 +205,23 @@ pub(crate) fn closing_rewards<E: Episodes + ?Sized>(
     Ok((rewards, cut))
 }
 
+/// A run's final evaluation: [`closing_rewards`] on the `Evaluate` streams, within the `left`
+/// seconds of its time limit, and whether an interrupt cut it (the result stands, with the
+/// episodes evaluated so far). What an `interrupted` run kept is evaluated for at most the
+/// interrupt's grace.
+pub(crate) fn final_evaluation<E: Episodes + ?Sized>(
+    world: &E,
+    policy: &Hhmm,
+    episodes: usize,
+    seed: u64,
+    interrupted: bool,
+    left: Option<f64>,
+) -> Result<(Evaluation, bool)> {
+    world.interrupt().filter(|_| interrupted).inspect(|i| i.grace(crate::control::GRACE));
+    let (rewards, cut) = closing_rewards(world, policy, episodes, seed, Purpose::Evaluate, left)?;
+    Ok((Evaluation::from_rewards(&rewards), cut))
+}
+
 /// Mean reward over `episodes` episodes of the `Select` streams: a score for choosing between
 /// policies that leaves the `Evaluate` episodes fresh for reporting the chosen one.
 pub fn selection_mean<E: Episodes + ?Sized>(world: &E, policy: &Hhmm, episodes: usize, seed: u64) -> Result<f64> {

@@ -12,10 +12,10 @@ use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memor
 use crate::ce::record::{CeResult, IterationRecord};
 use crate::ce::resume::{Checkpointing, Saver};
 use crate::ce::stopping::{Observed, StopReason};
-use crate::control::{Flow, GRACE, Interrupt, thread_pool};
+use crate::control::{Flow, Interrupt, thread_pool};
 use crate::episodes::{Batch, Episodes, Remote, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, check_fits, closing_reserve, closing_rewards};
+use crate::evaluate::{check_fits, closing_reserve, closing_rewards, final_evaluation};
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream_key};
 
@@ -202,8 +202,7 @@ fn optimize_once<E: Episodes + ?Sized>(
     let layout = initial.layout().clone();
     let stride = world.shape().horizon * layout.record_width();
     let (n, elite_count) = (config.samples, config.elite_count());
-    let remote = remote_of(world, config)?;
-    let started = Instant::now();
+    let (remote, started) = (remote_of(world, config)?, Instant::now());
     let RunState { mut policy, mut history, mut best, mut unsuccessful } =
         resume.unwrap_or(RunState { policy: initial, history: Vec::new(), best: None, unsuccessful: 0 });
     // Seconds of this run in earlier sessions.
@@ -216,9 +215,9 @@ fn optimize_once<E: Episodes + ?Sized>(
     let mut records = vec![0u16; if recorded { n * stride } else { 0 }];
     let mut rewards = vec![0.0f64; n];
     let mut lengths = vec![0u32; if recorded { n } else { 0 }];
-    let mut keys = vec![0u64; n];
-    let mut order: Vec<usize> = (0..n).collect();
+    let (mut keys, mut order): (Vec<u64>, Vec<usize>) = (vec![0; n], (0..n).collect());
     let chunk = elite_count.div_ceil(pool.current_num_threads()).max(1);
+    let earlier = saver.state.finished.iter().map(|r| r.result.history.len()).sum();
     while stop.is_none() {
         let (iteration, seed) = (history.len(), config.seed);
         let iteration_started = Instant::now();
@@ -278,7 +277,6 @@ fn optimize_once<E: Episodes + ?Sized>(
         };
         history.push(record.clone());
         let best_policy = || Ok(best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"));
-        let earlier = saver.state.finished.iter().map(|r| r.result.history.len()).sum();
         let flow = observer(&Observed { step: &record, best: &best_policy, run: saver.state.restart, earlier });
         let interrupted = world.interrupt().is_some_and(Interrupt::stopping).then_some(StopReason::Interrupted);
         // What the closing evaluations keep of the time limit, as this iteration's episodes ran.
@@ -293,37 +291,21 @@ fn optimize_once<E: Episodes + ?Sized>(
     let (_, best_iteration, best_policy) = best.ok_or(Error::Interrupted)?;
     // Inside the time limit: the closing evaluations share what is left of it.
     let left = config.time_limit.map(|t| (t - before - started.elapsed().as_secs_f64()) / closings as f64);
-    let (evaluation, stop) = evaluated(world, &best_policy, config, stop, left, &pool)?;
+    let (episodes, interrupted) = (config.eval_episodes, stop == StopReason::Interrupted);
+    let (evaluation, cut) =
+        pool.install(|| final_evaluation(world, &best_policy, episodes, config.seed, interrupted, left))?;
     Ok(CeResult {
         policy: best_policy,
         last_policy: policy,
         best_iteration,
         history,
-        stop,
+        stop: if cut { StopReason::Interrupted } else { stop },
         evaluation,
         seconds: before + started.elapsed().as_secs_f64(),
         restart: 0,
         restart_scores: Vec::new(),
         checkpoint_error: None,
     })
-}
-
-/// The final evaluation of a run's best `policy`, within the `left` seconds of its time limit,
-/// and why the run stopped: `stop`, or interrupted where an interrupt cut the evaluation (the
-/// result stands, with the episodes evaluated so far). What an interrupted run kept is
-/// evaluated for at most the interrupt's grace.
-fn evaluated<E: Episodes + ?Sized>(
-    world: &E,
-    policy: &Hhmm,
-    config: &CeConfig,
-    stop: StopReason,
-    left: Option<f64>,
-    pool: &rayon::ThreadPool,
-) -> Result<(Evaluation, StopReason)> {
-    world.interrupt().filter(|_| stop == StopReason::Interrupted).inspect(|i| i.grace(GRACE));
-    let (rewards, cut) =
-        pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Evaluate, left))?;
-    Ok((Evaluation::from_rewards(&rewards), if cut { StopReason::Interrupted } else { stop }))
 }
 
 /// Where the episodes are sampled elsewhere, what counts the elite there; refuses the

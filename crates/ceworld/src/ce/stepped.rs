@@ -16,7 +16,7 @@ use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, thread_pool};
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, closing_reserve, closing_rewards};
+use crate::evaluate::{Evaluation, closing_reserve, final_evaluation};
 use crate::policy::Hhmm;
 use crate::policy::file::PolicyFile;
 use crate::settings::Settings;
@@ -216,9 +216,7 @@ pub fn run_stepped_observed<O: Stepped>(
     // iterations are over).
     let left = rules.time_limit.map(|t| t - saver.seconds());
     let (episodes, seed) = (rules.eval_episodes, rules.seed);
-    let (rewards, _) =
-        pool.install(|| closing_rewards(world, &policy, episodes, seed, crate::rng::Purpose::Evaluate, left))?;
-    let evaluation = Evaluation::from_rewards(&rewards);
+    let (evaluation, _) = pool.install(|| final_evaluation(world, &policy, episodes, seed, false, left))?;
     Ok(SteppedOutcome {
         policy,
         history: run.history,

@@ -38,14 +38,9 @@ pub struct SearchState {
     /// itself): the later runs start their memory around it.
     #[serde(default)]
     pub memoryless: Option<(f64, Controller)>,
-    /// The search's scores on the selection episodes so far (by controller digest: the
-    /// search's store, [`super::value::Scores`]), filled as the state is saved.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub scores: Vec<(String, f64)>,
-    /// What a memoryless stage's best must beat and its noise, once computed (kept with the
-    /// scores: a resumed search does not run its episodes again).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub bar: Option<(f64, f64)>,
+    /// What the search has computed so far, filled as the state is saved.
+    #[serde(flatten)]
+    pub known: Known,
 }
 
 /// A run that is over.
@@ -64,12 +59,20 @@ pub struct FinishedSearch {
     /// The best memoryless policy of its memoryless stage, if it had one.
     #[serde(default)]
     pub memoryless: Option<(f64, Controller)>,
-    /// The search's scores on the selection episodes when it ended (the last run over alone
-    /// keeps them: [`SearchState::scores`]).
+    /// What the search had computed when it ended (the last run over alone keeps it, for a
+    /// resume before the next run's first save).
+    #[serde(flatten)]
+    pub known: Known,
+}
+
+/// What a search has computed that depends on no run, kept by its checkpoints so that a
+/// resumed search runs no episode again and records the uninterrupted history.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Known {
+    /// The scores on the selection episodes, by controller digest ([`super::selection::Scores`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub scores: Vec<(String, f64)>,
-    /// What a memoryless stage's best must beat and its noise, once computed (kept with the
-    /// scores: a resumed search does not run its episodes again).
+    /// What a memoryless stage's best must beat and its noise, once computed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bar: Option<(f64, f64)>,
 }

@@ -45,7 +45,7 @@ use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
 
 use crate::ce::resume::{Checkpointing, Saver};
-use checkpoint::{ControllerSearch, FinishedSearch, SearchSettings, SearchState};
+use checkpoint::{ControllerSearch, FinishedSearch, Known, SearchSettings, SearchState};
 use stage::model_start;
 
 /// Searches deterministic `config.nodes`-node controllers of `world` by the cross-entropy method
@@ -151,7 +151,7 @@ pub fn optimize_controller_observed(
         let stop = run.stop;
         // The last run over holds the scores (for a resume before the next run's first save).
         if let Some(last) = saver.state.finished.last_mut() {
-            (last.scores, last.bar) = (Vec::new(), None);
+            last.known = Known::default();
         }
         saver.state.finished.push(run);
         saver.state.restart += 1;
@@ -352,8 +352,7 @@ impl Search<'_> {
             injections: 0,
             growths: 0,
             memoryless: stage,
-            scores: Vec::new(),
-            bar: None,
+            known: Known::default(),
         })
     }
 
@@ -436,11 +435,7 @@ impl Search<'_> {
                     // Cut before the run's first iteration: nothing to keep.
                     break StopReason::Interrupted;
                 }
-                saver.save_run(stop.is_some(), || SearchState {
-                    scores: self.scores.saved(),
-                    bar: self.bar.get().copied(),
-                    ..state.clone()
-                });
+                saver.save_run(stop.is_some(), || SearchState { known: self.known(), ..state.clone() });
                 if let Some(stop) = stop {
                     break stop;
                 }
@@ -449,9 +444,8 @@ impl Search<'_> {
         // A run cut before its first iteration has nothing to keep.
         let (value, controller, best_iteration) = state.best.ok_or(Error::Interrupted)?;
         let memoryless = state.memoryless;
-        let (history, scores) = (state.history, self.scores.saved());
-        let bar = self.bar.get().copied();
-        Ok(FinishedSearch { value, controller, best_iteration, history, stop, memoryless, scores, bar })
+        let (history, known) = (state.history, self.known());
+        Ok(FinishedSearch { value, controller, best_iteration, history, stop, memoryless, known })
     }
 
     /// The iteration's controllers drawn from `laws` and valued, best first, with the candidate

@@ -3,14 +3,13 @@
 //! checkpoints), and the returned controller's evaluation on fresh episodes, inside the time
 //! limit.
 
-use super::checkpoint::ControllerCheckpoint;
+use super::checkpoint::{ControllerCheckpoint, Known};
 use super::outcome::ControllerOutcome;
 use super::{Search, Values};
 use crate::ce::stopping::StopReason;
-use crate::control::GRACE;
 use crate::episodes::{Episodes, Streams};
 use crate::error::Result;
-use crate::evaluate::{Evaluation, closing_rewards, mean};
+use crate::evaluate::{final_evaluation, mean};
 use crate::policy::controller::Controller;
 use crate::rng::Purpose;
 
@@ -21,16 +20,22 @@ impl Search<'_> {
     pub(super) fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
         let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
         let m = self.config.select_episodes;
-        let scores: Vec<Option<f64>> = controllers.iter().map(|c| self.scores.get(c)).collect();
-        let new: Vec<Controller> =
-            controllers.iter().zip(&scores).filter(|(_, s)| s.is_none()).map(|(c, _)| c.clone()).collect();
+        let keys: Vec<[u8; 16]> = controllers.iter().map(digest).collect();
+        let scores: Vec<Option<f64>> = keys.iter().map(|k| self.scores.get(k)).collect();
+        let (new, new_keys): (Vec<Controller>, Vec<[u8; 16]>) = controllers
+            .iter()
+            .zip(&keys)
+            .zip(&scores)
+            .filter(|(_, s)| s.is_none())
+            .map(|((c, k), _)| (c.clone(), *k))
+            .unzip();
         let mut values = vec![0.0; new.len() * m];
         let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
         self.pool.install(|| world.run_controllers(&new, streams, m, &mut values))?;
         self.ran(values.len());
-        let mut fresh = new.iter().zip(values.chunks(m)).map(|(c, v)| {
+        let mut fresh = new_keys.iter().zip(values.chunks(m)).map(|(k, v)| {
             let score = mean(v.iter().copied());
-            self.scores.keep(c, score);
+            self.scores.keep(*k, score);
             score
         });
         Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
@@ -60,21 +65,22 @@ impl Search<'_> {
 
     /// Evaluates the outcome of a search on sampled values on fresh episodes (its value is
     /// theirs: the controller was not chosen on them), within the `left` seconds of the time
-    /// limit; an interrupted search's for at most the interrupt's grace.
+    /// limit ([`final_evaluation`]).
     pub(super) fn evaluate(&self, w: &dyn Episodes, outcome: &mut ControllerOutcome, left: Option<f64>) -> Result<()> {
         let interrupted = outcome.stop == StopReason::Interrupted;
-        w.interrupt().filter(|_| interrupted).inspect(|i| i.grace(GRACE));
         let (policy, episodes, seed) = (&outcome.policy, self.config.eval_episodes, self.config.seed);
-        let (rewards, cut) =
-            self.pool.install(|| closing_rewards(w, policy, episodes, seed, Purpose::Evaluate, left))?;
+        let (evaluation, cut) = self.pool.install(|| final_evaluation(w, policy, episodes, seed, interrupted, left))?;
         if cut {
-            // Interrupted while evaluated: the result stands, with the episodes evaluated so far.
             outcome.stop = StopReason::Interrupted;
         }
-        let evaluation = Evaluation::from_rewards(&rewards);
         outcome.value = evaluation.mean;
         outcome.evaluation = Some(evaluation);
         Ok(())
+    }
+
+    /// What the search has computed so far, as its checkpoints keep it.
+    pub(super) fn known(&self) -> Known {
+        Known { scores: self.scores.saved(), bar: self.bar.get().copied() }
     }
 
     /// The seconds kept for the final evaluation at the end of the time limit.
@@ -87,14 +93,9 @@ impl Search<'_> {
 /// progress, or of the last run over (none in a fresh search).
 pub(super) fn kept_values(state: &ControllerCheckpoint) -> Result<(Scores, std::sync::OnceLock<(f64, f64)>)> {
     let (scores, bar) = (Scores::default(), std::sync::OnceLock::new());
-    let saved = match (&state.run, state.finished.last()) {
-        (Some(run), _) => Some((&run.scores, run.bar)),
-        (None, Some(last)) => Some((&last.scores, last.bar)),
-        (None, None) => None,
-    };
-    if let Some((saved, known)) = saved {
-        scores.restore(saved)?;
-        if let Some(known) = known {
+    if let Some(known) = state.run.as_ref().map(|r| &r.known).or(state.finished.last().map(|r| &r.known)) {
+        scores.restore(&known.scores)?;
+        if let Some(known) = known.bar {
             let _ = bar.set(known);
         }
     }
@@ -114,18 +115,18 @@ impl Scores {
     /// The most scores kept (about 40 MB in memory, and in a checkpoint).
     pub const MOST: usize = 1 << 20;
 
-    /// The score kept for `c`, if any.
-    pub fn get(&self, c: &Controller) -> Option<f64> {
-        self.lock().get(&digest(c)).copied()
+    /// The score kept for the controller of digest `key` ([`digest`]), if any.
+    pub fn get(&self, key: &[u8; 16]) -> Option<f64> {
+        self.lock().get(key).copied()
     }
 
-    /// Keeps `score` as the score of `c`.
-    pub fn keep(&self, c: &Controller, score: f64) {
+    /// Keeps `score` as the score of the controller of digest `key`.
+    pub fn keep(&self, key: [u8; 16], score: f64) {
         let mut values = self.lock();
         if values.len() >= Self::MOST {
             values.clear();
         }
-        values.insert(digest(c), score);
+        values.insert(key, score);
     }
 
     /// Every score kept, by the digest in hex, in the digests' order (as a checkpoint holds them).
@@ -140,15 +141,9 @@ impl Scores {
     pub fn restore(&self, saved: &[(String, f64)]) -> crate::error::Result<()> {
         let mut values = std::collections::HashMap::with_capacity(saved.len());
         for (hex, score) in saved {
-            let bytes = (hex.len() == 32 && hex.bytes().all(|b| b.is_ascii_hexdigit()))
-                .then(|| {
-                    (0..16).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16)).collect::<Result<Vec<u8>, _>>()
-                })
-                .and_then(std::result::Result::ok)
-                .and_then(|b| <[u8; 16]>::try_from(b).ok())
-                .ok_or_else(|| {
-                    crate::error::Error::format(format!("a selection score's digest {hex:?} (expected 32 hex digits)"))
-                })?;
+            let bytes = unhex(hex).ok_or_else(|| {
+                crate::error::Error::format(format!("a selection score's digest {hex:?} (expected 32 hex digits)"))
+            })?;
             values.insert(bytes, *score);
         }
         *self.lock() = values;
@@ -160,7 +155,20 @@ impl Scores {
     }
 }
 
-/// The first 16 bytes of the SHA-256 of a controller's tables (their lengths and entries).
+/// The 16 bytes written as 32 hex digits ([`crate::files::hex`]), if `hex` is that.
+fn unhex(hex: &str) -> Option<[u8; 16]> {
+    if hex.len() != 32 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return None;
+    }
+    let mut out = [0u8; 16];
+    for (i, byte) in out.iter_mut().enumerate() {
+        *byte = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).ok()?;
+    }
+    Some(out)
+}
+
+/// The first 16 bytes of the SHA-256 of a controller's tables (their lengths and entries): its
+/// key in [`Scores`].
 fn digest(c: &Controller) -> [u8; 16] {
     use sha2::{Digest, Sha256};
     let mut h = Sha256::new();
