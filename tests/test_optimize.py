@@ -88,7 +88,9 @@ def test_time_limit_stops(case3: cehmm.TargetTracking) -> None:
         case3, levels=[4], samples=100, patience=10**6, time_limit=0.05, eval_episodes=50, progress=False
     )
     assert result.stop_reason == "time_limit" and not result.interrupted
-    assert result.history["seconds"][-1] >= 0.05
+    # The iterations stop once what the final evaluation would take no longer fits before the
+    # limit: at most half of it is kept for the evaluation (issue 45, item 17).
+    assert result.history["seconds"][-1] >= 0.05 / 2
     assert result.history["seconds"][-2] < 0.05 if result.iterations > 1 else True
 
 
