@@ -153,7 +153,7 @@ def test_results_draw_their_learning_curves(tmp_path: Path, monkeypatch: pytest.
         assert path.stat().st_size > 1000
     with pytest.raises(TypeError, match="expected a result"):
         package.plots.learning_curve([1, 2, 3])
-    with pytest.raises(package.InvalidArgumentError, match="'iteration' or 'seconds'"):
+    with pytest.raises(package.InvalidArgumentError, match="'iteration', 'seconds' or 'env_steps'"):
         result.plot(x="time")
     # Without matplotlib (the optional extra), the error says how to install it.
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)

@@ -47,6 +47,7 @@ def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWo
         "grown",
         "widened",
         "seconds",
+        "env_steps",
     }
     assert result.kind == "exact" and result.evaluation is None
     assert len(h["best_so_far"]) == len(h["mean"]) and h["best_so_far"][-1] == result.value

@@ -13,7 +13,7 @@ import pytest
 
 import cehmm
 
-HISTORY = ["iteration", "mean", "best", "elite_threshold", "elite_mean", "seconds", "successful"]
+HISTORY = ["iteration", "mean", "best", "elite_threshold", "elite_mean", "seconds", "successful", "env_steps"]
 
 
 def test_result_structure(trained: cehmm.OptimizeResult) -> None:

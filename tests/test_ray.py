@@ -152,6 +152,9 @@ def _same_run(remote: cehmm.OptimizeResult, local: cehmm.OptimizeResult) -> None
     assert _tables(remote) == _tables(local)
     assert np.array_equal(remote.history["mean"], local.history["mean"])
     assert remote.evaluation == local.evaluation
+    # The world's steps, counted on the workers, are the local count.
+    assert (remote.env_steps, remote.eval_env_steps) == (local.env_steps, local.eval_env_steps)
+    assert np.array_equal(remote.history["env_steps"], local.history["env_steps"])
 
 
 def test_episode_ce_on_an_engine_world_on_ray_is_the_local_one(cluster):
@@ -206,6 +209,20 @@ def test_the_controller_search_on_a_python_world_on_ray_is_the_local_one(cluster
     remote = cehmm.optimize_controller(Corridor(), progress=False, backend=cehmm.RayBackend(workers=3), **settings)
     assert remote.policy.to_json() == local.policy.to_json()
     assert remote.value == local.value and list(remote.history["mean"]) == list(local.history["mean"])
+    assert (remote.env_steps, remote.eval_env_steps) == (local.env_steps, local.eval_env_steps)
+
+
+def test_a_budget_in_steps_on_ray_is_the_local_one(cluster):
+    budget = {**CORRIDOR, "max_iterations": None, "max_env_steps": 5000}
+    local = cehmm.optimize(Corridor(), init="random", **budget)
+    remote = cehmm.optimize(Corridor(), init="random", backend="ray", workers=3, **budget)
+    assert local.stop_reason == remote.stop_reason == "max_env_steps"
+    _same_run(remote, local)
+    settings = dict(nodes=2, samples=16, episodes=4, select_episodes=8, eval_episodes=50, max_env_steps=2000)
+    local_search = cehmm.optimize_controller(Corridor(), progress=False, **settings)
+    remote_search = cehmm.optimize_controller(Corridor(), progress=False, backend="ray", workers=2, **settings)
+    assert remote_search.policy.to_json() == local_search.policy.to_json()
+    assert remote_search.env_steps == local_search.env_steps and remote_search.stop_reason == "max_env_steps"
 
 
 def test_the_controller_search_on_exact_values_on_ray_is_the_local_one(cluster):

@@ -28,11 +28,11 @@ def world_and_policy(request):
 
 def test_shards_of_an_evaluation_are_its_episodes(world_and_policy) -> None:
     core, policy, world = world_and_policy
-    whole = policy.shard_rewards(core, 9, "evaluate", 0, 0, 300)
-    split = np.concatenate(
-        [policy.shard_rewards(core, 9, "evaluate", 0, a, b - a) for a, b in [(0, 7), (7, 200), (200, 300)]]
-    )
-    assert np.array_equal(whole, split)
+    # A shard's answer ends with the world's steps its episodes took.
+    whole, steps = np.split(policy.shard_rewards(core, 9, "evaluate", 0, 0, 300), [300])
+    shards = [policy.shard_rewards(core, 9, "evaluate", 0, a, b - a) for a, b in [(0, 7), (7, 200), (200, 300)]]
+    assert np.array_equal(whole, np.concatenate([s[:-1] for s in shards]))
+    assert steps[0] == sum(s[-1] for s in shards) > 0
     e = cehmm.Policy(policy).evaluate(world, episodes=300, seed=9)
     assert (e.min, e.max, e.quantiles[0.5]) == (whole.min(), whole.max(), np.sort(whole)[149])
     assert e.mean == pytest.approx(whole.mean(), rel=1e-12)
@@ -42,7 +42,7 @@ def test_each_purpose_and_iteration_has_its_own_episodes() -> None:
     world = cehmm.TargetTracking(case=3)
     policy = cehmm.Policy.random(world, [3, 2], seed=5)._core
     runs = [
-        policy.shard_rewards(world._core, 9, p, i, 0, 300)
+        policy.shard_rewards(world._core, 9, p, i, 0, 300)[:-1]
         for p, i in [("evaluate", 0), ("optimise", 0), ("optimise", 1)]
     ]
     assert all(r.std() > 0 for r in runs)

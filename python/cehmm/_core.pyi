@@ -179,6 +179,7 @@ class HistoryDict(TypedDict):
     elite_mean: npt.NDArray[np.float64]
     seconds: npt.NDArray[np.float64]
     successful: npt.NDArray[np.bool_]
+    env_steps: npt.NDArray[np.int64]
 
 class ControllerHistoryDict(HistoryDict):
     restart: npt.NDArray[np.int64]
@@ -355,6 +356,8 @@ class _OptimizeOutcome(TypedDict):
     best_iteration: int
     iterations: int
     seconds: float
+    env_steps: int
+    eval_env_steps: int
 
 def controller_values(
     world: World | OutsideWorld,
@@ -415,6 +418,8 @@ class _ControllerOutcome(TypedDict):
     restart: int
     run_values: list[float]
     seconds: float
+    env_steps: int
+    eval_env_steps: int
 
 def optimize_controller(
     world: World | OutsideWorld,
@@ -436,6 +441,8 @@ class _RunOutcome(TypedDict):
     evaluation: _EvaluationDict
     stop_reason: str
     seconds: float
+    env_steps: int
+    eval_env_steps: int
 
 def run(
     name: str,

@@ -62,7 +62,8 @@ class Sampler(Protocol):
 
     def rewards(self, policy: str, seed: int, purpose: str, iteration: int, first: int, n: int) -> Pending:
         """Rewards of episodes ``first..first + n`` of ``(seed, purpose, iteration)`` under
-        ``policy`` (a policy document)."""
+        ``policy`` (a policy document), then the world's steps they took (``n + 1`` numbers:
+        what a budget in steps counts)."""
         ...
 
     def counts(self, policy: str, seed: int, iteration: int, episodes: npt.NDArray[np.uint64]) -> Pending:
@@ -71,13 +72,15 @@ class Sampler(Protocol):
         ...
 
     def controller_values(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Pending:
-        """The mean reward of episodes ``0..episodes`` of each controller, in order."""
+        """The reward of episodes ``0..episodes`` of each controller, controller after
+        controller, then the world's steps they took."""
         ...
 
     def controller_credit(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Pending:
         """As :meth:`controller_values`, with each controller's credit within its episodes (model
         §8), controller after controller: 1.0 where credited (else 0.0), its ``episodes``
-        values, then its decision rows' visits and summed credit (``_core.controller_credit``)."""
+        values, then its decision rows' visits and summed credit; then the world's steps they took
+        (``_core.controller_credit``)."""
         ...
 
     def exact_values(self, controllers: str, tolerance: float) -> Pending:

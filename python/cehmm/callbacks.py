@@ -85,8 +85,9 @@ class Iteration(dict[str, Any]):
         >>> seen = []
         >>> result = cehmm.optimize(cehmm.TargetTracking(case=1), levels=[4], samples=200,
         ...                         max_iterations=2, progress=False, callback=seen.append)
-        >>> sorted(seen[0])
-        ['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'run', 'score', 'seconds', 'step', 'successful']
+        >>> sorted(seen[0])  # doctest: +NORMALIZE_WHITESPACE
+        ['best', 'elite_mean', 'elite_threshold', 'env_steps', 'iteration', 'mean', 'run', 'score',
+         'seconds', 'step', 'successful']
         >>> seen[1].best_policy().levels
         [4]
     """

@@ -55,15 +55,18 @@ class ControllerResult:
             ``seconds``; 0 on exact values), ``injected`` (bool: the laws were mixed
             with the uniform law after this iteration), ``grown`` (bool: the laws grew a node
             after this iteration), ``widened`` (bool: the memoryless stage ended after this
-            iteration) and ``seconds``.
+            iteration), ``seconds`` and ``env_steps`` (int64, sampled values: the world's steps
+            learning had taken by the iteration's end, every run together; 0 on exact values).
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
-            ``"time_limit"``, ``"target"``, ``"callback"`` (``callback=`` returned ``False``) or
-            ``"interrupted"`` (Ctrl-C).
+            ``"time_limit"``, ``"max_env_steps"``, ``"target"``, ``"callback"`` (``callback=``
+            returned ``False``) or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
         best_iteration: the iteration that drew the best controller, within its run.
         restart: the run that found it.
         run_values: the best value of each run (exact, or on the selection episodes).
         seconds: wall time.
+        env_steps: sampled values: the world's steps learning took (selection included).
+        eval_env_steps: sampled values: the world's steps of :attr:`evaluation`.
 
     Example:
         >>> tiger = PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=100)
@@ -85,6 +88,8 @@ class ControllerResult:
     restart: int
     run_values: list[float]
     seconds: float
+    env_steps: int
+    eval_env_steps: int
 
     def plot(self, x: str = "iteration") -> Any:
         """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""
@@ -112,6 +117,7 @@ def optimize_controller(
     max_iterations: int | None = None,
     target: float | None = None,
     time_limit: float | None = None,
+    max_env_steps: int | None = None,
     tolerance: float = CONTROLLER_DEFAULTS["tolerance"],
     seed: int = CONTROLLER_DEFAULTS["seed"],
     threads: int | None = None,
@@ -189,6 +195,11 @@ def optimize_controller(
             evaluation too: the iterations stop early by what ``eval_episodes`` would take (as
             their own episodes ran; at most half the limit), and an evaluation that does not fit
             is cut at the limit, with fewer episodes (``evaluation.episodes``).
+        max_env_steps: sampled values: stop once learning has taken this many of the world's
+            steps (selection episodes included; every run and session together; the
+            evaluation's counted apart in ``eval_env_steps``): the iteration that reaches it is
+            cut between groups of about 1024 episodes, as the time limit cuts it, and
+            ``stop_reason`` is ``"max_env_steps"``. Refused on exact values (no step is taken).
         tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
             counts as progress.
         seed: seed of every random stream.
@@ -260,8 +271,8 @@ def optimize_controller(
             it stops (the end, Ctrl-C), through a temporary file renamed over it.
         checkpoint_every: seconds between two checkpoints.
         resume: continue from ``checkpoint`` when that file exists (else start afresh): with
-            the same world and settings (stopping rules, ``time_limit`` and ``threads`` may
-            differ) the result is the one an uninterrupted search gives, bit for bit. With a
+            the same world and settings (stopping rules, ``time_limit``, ``max_env_steps`` and
+            ``threads`` may differ) the result is the one an uninterrupted search gives, bit for bit. With a
             checkpoint, a SIGTERM that finds its default action stops the search like Ctrl-C,
             saves the checkpoint, then ends the process as SIGTERM asks.
         score: for a world written in Python, an episode's value from its
@@ -311,6 +322,7 @@ def optimize_controller(
                 patience=patience,
                 max_iterations=max_iterations,
                 time_limit=time_limit,
+                max_env_steps=max_env_steps,
                 tolerance=tolerance,
                 seed=seed,
                 threads=threads,

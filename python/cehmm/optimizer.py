@@ -40,22 +40,27 @@ class OptimizeResult:
         last_policy: the policy after the last update.
         history: one numpy array per statistic, one entry per iteration: ``iteration`` (int64),
             ``mean``, ``best``, ``elite_threshold``, ``elite_mean``, ``seconds`` (float64,
-            seconds since the start) and ``successful`` (bool: the mean beat every earlier one).
+            seconds since the start), ``successful`` (bool: the mean beat every earlier one) and
+            ``env_steps`` (int64: the world's steps learning had taken by the iteration's end,
+            every run together).
         evaluation: :attr:`policy` evaluated on ``eval_episodes`` fresh episodes (unbiased,
             unlike the best iteration's mean).
-        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"target"``,
-            ``"callback"`` (``callback=`` returned ``False``) or ``"interrupted"`` (Ctrl-C).
+        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``,
+            ``"max_env_steps"``, ``"target"``, ``"callback"`` (``callback=`` returned ``False``)
+            or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
         best_iteration: index of the best iteration.
         iterations: number of iterations run.
         seconds: wall time, evaluation included.
+        env_steps: the world's steps learning took (every run and session together).
+        eval_env_steps: the world's steps of :attr:`evaluation`, counted apart.
 
     Example:
         >>> result = optimize(TargetTracking(case=1), levels=[4], samples=200, max_iterations=3, progress=False)
         >>> result.stop_reason, result.iterations, result.policy.levels
         ('max_iterations', 3, [4])
         >>> sorted(result.history), result.evaluation.episodes
-        (['best', 'elite_mean', 'elite_threshold', 'iteration', 'mean', 'seconds', 'successful'], 10000)
+        (['best', 'elite_mean', 'elite_threshold', 'env_steps', 'iteration', 'mean', 'seconds', 'successful'], 10000)
         >>> result.best_mean == float(result.history["mean"].max())
         True
     """
@@ -69,6 +74,8 @@ class OptimizeResult:
     best_iteration: int
     iterations: int
     seconds: float
+    env_steps: int
+    eval_env_steps: int
 
     @classmethod
     def _from_core(cls, core: _core._OptimizeOutcome) -> OptimizeResult:
@@ -112,6 +119,7 @@ def optimize(
     patience: int = CE_DEFAULTS["patience"],
     max_iterations: int | None = None,
     time_limit: float | None = None,
+    max_env_steps: int | None = None,
     target: float | None = None,
     seed: int = CE_DEFAULTS["seed"],
     threads: int | None = None,
@@ -162,6 +170,12 @@ def optimize(
             early by what those episodes would take (as the iterations' ran; at most half the
             limit), and an evaluation that does not fit is cut at the limit, with fewer episodes
             (``evaluation.episodes``).
+        max_env_steps: stop once learning has taken this many of the world's steps (SB3's
+            ``total_timesteps``; every run and session together, the final evaluation's counted
+            apart in ``eval_env_steps``): the iteration that reaches it is cut after the batch of
+            about 256 episodes that does (its elite is of the episodes run), and the result's
+            ``stop_reason`` is ``"max_env_steps"``. The count is the same for any thread or
+            worker count.
         target: stop once an iteration's mean reward reaches this value.
         seed: seed of every random stream.
         threads: worker threads (default: one per core).
@@ -183,8 +197,8 @@ def optimize(
             the run stops (the end, Ctrl-C), through a temporary file renamed over it.
         checkpoint_every: seconds between two checkpoints.
         resume: continue from ``checkpoint`` when that file exists (else start afresh). With
-            the same world and settings (stopping rules, ``time_limit`` and ``threads`` may
-            differ), the final policy is the one an uninterrupted run gives, bit for bit.
+            the same world and settings (stopping rules, ``time_limit``, ``max_env_steps`` and
+            ``threads`` may differ), the final policy is the one an uninterrupted run gives, bit for bit.
             With a checkpoint, a SIGTERM (a scheduler's) that finds its default action stops the
             run like Ctrl-C, saves the checkpoint, then ends the process as SIGTERM asks (status
             143 / -15): rerunning the same call with ``resume=True`` continues it.
@@ -243,6 +257,7 @@ def optimize(
                 patience=patience,
                 max_iterations=max_iterations,
                 time_limit=time_limit,
+                max_env_steps=max_env_steps,
                 target=target,
                 seed=seed,
                 threads=threads,

@@ -321,7 +321,7 @@ class RaySampler:
     def rewards(self, policy: str, seed: int, purpose: str, iteration: int, first: int, n: int) -> RayPending:
         """Rewards of episodes ``first..first + n`` of ``(seed, purpose, iteration)`` under ``policy``."""
         shards = [(seed, purpose, iteration, first + a, b - a) for a, b in _cuts(n, self.backend.workers)]
-        return self._submit("rewards", policy, shards, np.concatenate)
+        return self._submit("rewards", policy, shards, _with_steps)
 
     def counts(self, policy: str, seed: int, iteration: int, episodes: npt.NDArray[np.uint64]) -> RayPending:
         """The sampled counts of ``episodes`` of iteration ``iteration`` under ``policy``."""
@@ -339,13 +339,14 @@ class RaySampler:
     def _controllers(
         self, kind: str, controllers: str, seed: int, purpose: str, iteration: int, episodes: int
     ) -> RayPending:
-        """Shards of contiguous controllers, their answers concatenated in order."""
+        """Shards of contiguous controllers, their answers concatenated in order (their steps
+        summed)."""
         laws = json.loads(controllers)
         shards = [
             (json.dumps(laws[a:b]), seed, purpose, iteration, episodes)
             for a, b in _cuts(len(laws), self.backend.workers)
         ]
-        return self._submit(kind, "", shards, np.concatenate)
+        return self._submit(kind, "", shards, _with_steps)
 
     def exact_values(self, controllers: str, tolerance: float) -> RayPending:
         """Exact values of each controller (a tabular world), to ``tolerance``."""
@@ -408,6 +409,13 @@ def _cuts(n: int, parts: int) -> list[tuple[int, int]]:
     size, extra = divmod(n, parts)
     bounds = [k * size + min(k, extra) for k in range(parts + 1)]
     return [(a, b) for a, b in zip(bounds, bounds[1:]) if b > a]
+
+
+def _with_steps(parts: list[npt.NDArray[np.float64]]) -> npt.NDArray[np.float64]:
+    """Shards' answers of episodes, each ending with the world's steps it took: their numbers
+    concatenated in order, then the steps summed (whole numbers: exact in any order)."""
+    steps = sum(float(part[-1]) for part in parts)
+    return np.concatenate([part[:-1] for part in parts] + [np.array([steps])])
 
 
 def _sum_counts(parts: list[npt.NDArray[np.uint32]]) -> npt.NDArray[np.uint32]:

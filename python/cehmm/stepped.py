@@ -33,11 +33,14 @@ class RunResult:
         policy: the best policy found, with its provenance (the settings, the method).
         history: one numpy array per statistic, one entry per iteration (``iteration``,
             ``mean``, ``best``, ``elite_threshold``, ``elite_mean``, ``seconds``,
-            ``successful``).
+            ``successful``, ``env_steps``).
         evaluation: :attr:`policy` on fresh episodes.
-        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``, ``"callback"``
+        stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``,
+            ``"max_env_steps"``, ``"callback"``
             (``callback=`` returned ``False``) or ``"interrupted"``.
         seconds: wall time, every session together.
+        env_steps: the world's steps learning took, every session together.
+        eval_env_steps: the world's steps of :attr:`evaluation`, counted apart.
 
     Example:
         >>> tiger = PomdpWorld.from_file("data/pomdp/tiger.95.POMDP", horizon=20)
@@ -53,6 +56,8 @@ class RunResult:
     evaluation: Evaluation
     stop_reason: str
     seconds: float
+    env_steps: int
+    eval_env_steps: int
 
     @property
     def interrupted(self) -> bool:

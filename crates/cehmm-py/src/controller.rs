@@ -63,5 +63,7 @@ pub fn optimize_controller<'py>(
     result.set_item("restart", o.restart)?;
     result.set_item("run_values", o.run_values)?;
     result.set_item("seconds", o.seconds)?;
+    result.set_item("env_steps", o.env_steps)?;
+    result.set_item("eval_env_steps", o.eval_env_steps)?;
     Ok(result)
 }

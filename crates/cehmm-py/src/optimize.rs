@@ -55,5 +55,7 @@ pub fn optimize<'py>(
     result.set_item("best_iteration", r.best_iteration)?;
     result.set_item("iterations", r.history.len())?;
     result.set_item("seconds", r.seconds)?;
+    result.set_item("env_steps", r.env_steps)?;
+    result.set_item("eval_env_steps", r.eval_env_steps)?;
     Ok(result)
 }

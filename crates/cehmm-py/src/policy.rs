@@ -219,10 +219,12 @@ impl PyPolicy {
         let (world, policy) = (WorldArg::of(world)?, &self.file.policy);
         let pool = thread_pool(optional_count("threads", threads)?).or_raise()?;
         let rewards = world.run(py, |w| {
-            let mut values = vec![0.0; n];
-            let batch = ceworld::episodes::Batch { values: &mut values, records: None };
+            let mut values = vec![0.0; n + 1];
+            let batch = ceworld::episodes::Batch { values: &mut values[..n], records: None };
             check_fits(w, policy)?;
-            pool.install(|| w.run(policy, streams, first, batch)).map(|()| values)
+            let steps = pool.install(|| w.run(policy, streams, first, batch))?;
+            values[n] = steps as f64;
+            Ok(values)
         })?;
         Ok(PyArray1::from_vec(py, rewards))
     }

@@ -179,6 +179,18 @@ impl Pending for Waiting<'_> {
     }
 }
 
+/// A backend's answer of episodes, then the world's steps they took (a whole number, as a
+/// float): the two apart.
+fn with_steps<'a>(answer: &'a [f64], method: &str) -> ceworld::Result<(&'a [f64], u64)> {
+    let (&steps, values) = answer.split_last().expect("an answer of at least one number");
+    if !(steps >= 0.0 && steps.fract() == 0.0 && steps < 2f64.powi(53)) {
+        return Err(Error::World(format!(
+            "the backend's {method} ended with {steps} steps (expected the world's steps: a whole number >= 0)"
+        )));
+    }
+    Ok((values, steps as u64))
+}
+
 /// The name of `purpose` as the workers read it.
 fn purpose_name(purpose: Purpose) -> ceworld::Result<&'static str> {
     purpose.episodes_name().ok_or_else(|| Error::invalid("purpose", format!("{purpose:?} (not run elsewhere)")))
@@ -193,18 +205,19 @@ impl Episodes for Remote {
         self.description.clone()
     }
 
-    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> ceworld::Result<()> {
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> ceworld::Result<u64> {
         if batch.records.is_some() {
             return Err(Error::invalid("records", "asked of episodes sampled elsewhere (they stay where they ran)"));
         }
         let (text, purpose, n) = (self.policy_json(policy), purpose_name(streams.purpose)?, batch.values.len());
-        let rewards = self.ask::<f64>(
+        let answer = self.ask::<f64>(
             REWARDS,
             |py| Ok((text, streams.seed, purpose, streams.iteration, first, n).into_pyobject(py)?.unbind()),
-            n,
+            n + 1,
         )?;
-        batch.values.copy_from_slice(&rewards);
-        Ok(())
+        let (rewards, steps) = with_steps(&answer, REWARDS)?;
+        batch.values.copy_from_slice(rewards);
+        Ok(steps)
     }
 
     fn run_controllers(
@@ -213,16 +226,17 @@ impl Episodes for Remote {
         streams: Streams,
         episodes: usize,
         values: &mut [f64],
-    ) -> ceworld::Result<()> {
+    ) -> ceworld::Result<u64> {
         let text = serde_json::to_string(controllers).expect("controllers serialise");
         let purpose = purpose_name(streams.purpose)?;
         let answer = self.ask::<f64>(
             CONTROLLER_VALUES,
             |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
-            values.len(),
+            values.len() + 1,
         )?;
-        values.copy_from_slice(&answer);
-        Ok(())
+        let (answer, steps) = with_steps(&answer, CONTROLLER_VALUES)?;
+        values.copy_from_slice(answer);
+        Ok(steps)
     }
 
     fn run_controllers_credited(
@@ -232,15 +246,16 @@ impl Episodes for Remote {
         episodes: usize,
         values: &mut [f64],
         credit: &mut StepCredit,
-    ) -> ceworld::Result<bool> {
+    ) -> ceworld::Result<(u64, bool)> {
         let text = serde_json::to_string(controllers).expect("controllers serialise");
         let purpose = purpose_name(streams.purpose)?;
         let answer = self.ask::<f64>(
             CONTROLLER_CREDIT,
             |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
-            controllers.len() * StepCredit::block(episodes, credit.rows),
+            controllers.len() * StepCredit::block(episodes, credit.rows) + 1,
         )?;
-        Ok(credit.add_blocks(&answer, values, episodes))
+        let (answer, steps) = with_steps(&answer, CONTROLLER_CREDIT)?;
+        Ok((steps, credit.add_blocks(answer, values, episodes)))
     }
 
     fn interrupt(&self) -> Option<&Interrupt> {

@@ -199,5 +199,7 @@ pub fn run<'py>(
     result.set_item("evaluation", crate::results::evaluation(py, &outcome.evaluation)?)?;
     result.set_item("stop_reason", outcome.stop.as_str())?;
     result.set_item("seconds", outcome.seconds)?;
+    result.set_item("env_steps", outcome.env_steps)?;
+    result.set_item("eval_env_steps", outcome.eval_env_steps)?;
     Ok(result)
 }

@@ -26,7 +26,8 @@ fn read_controllers(text: &str, shape: Shape) -> PyResult<Vec<Controller>> {
 
 /// The values of episodes `0..episodes` of `(seed, purpose, iteration)` of each controller of
 /// `controllers` (JSON text: a list of `{"act": [...], "next": [...]}`), controller by
-/// controller: a shard of a controller search's iteration or selection, as a worker runs it.
+/// controller, then the world's steps they took: a shard of a controller search's iteration or
+/// selection, as a worker runs it.
 #[pyfunction]
 #[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
 #[allow(clippy::too_many_arguments)]
@@ -43,15 +44,20 @@ pub fn controller_values<'py>(
     let run = Shard::read(py, world, controllers, seed, purpose, iteration, episodes, threads)?;
     let pool = ceworld::control::thread_pool(run.threads).or_raise()?;
     let values = run.world.run(py, |w| {
-        let mut values = vec![0.0; run.controllers.len() * run.episodes];
-        pool.install(|| w.run_controllers(&run.controllers, run.streams, run.episodes, &mut values)).map(|()| values)
+        let n = run.controllers.len() * run.episodes;
+        let mut values = vec![0.0; n + 1];
+        let steps =
+            pool.install(|| w.run_controllers(&run.controllers, run.streams, run.episodes, &mut values[..n]))?;
+        values[n] = steps as f64;
+        Ok(values)
     })?;
     Ok(PyArray1::from_vec(py, values))
 }
 
 /// As [`controller_values`], with the credit of each controller's decision rows within its
 /// episodes (model §8), controller by controller: whether credited, its values, its rows'
-/// visits and summed credit (`ceworld::episodes::credit::StepCredit::to_blocks`).
+/// visits and summed credit (`ceworld::episodes::credit::StepCredit::to_blocks`); then the
+/// world's steps they took.
 #[pyfunction]
 #[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
 #[allow(clippy::too_many_arguments)]
@@ -71,10 +77,12 @@ pub fn controller_credit<'py>(
     let blocks = run.world.run(py, |w| {
         let mut values = vec![0.0; run.controllers.len() * run.episodes];
         let mut credit = StepCredit::new(run.controllers.len(), rows);
-        let credited = pool.install(|| {
+        let (steps, credited) = pool.install(|| {
             w.run_controllers_credited(&run.controllers, run.streams, run.episodes, &mut values, &mut credit)
         })?;
-        Ok(credit.to_blocks(credited, &values, run.episodes))
+        let mut blocks = credit.to_blocks(credited, &values, run.episodes);
+        blocks.push(steps as f64);
+        Ok(blocks)
     })?;
     Ok(PyArray1::from_vec(py, blocks))
 }

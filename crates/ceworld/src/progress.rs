@@ -248,6 +248,7 @@ mod tests {
             elite_mean: mean,
             seconds: 0.5,
             successful,
+            env_steps: 0,
         }
     }
 

@@ -2,6 +2,7 @@
 //! against a hand computation and against the exact evaluation of its HHMM, the search against
 //! brute force on a tiny problem, determinism, restarts, interruption and bad settings.
 
+use ceworld::ce::budget::Budget;
 use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, Scratch, Valued, optimize_controller};
 use ceworld::exact::{finite_horizon, infinite_horizon};
 use ceworld::rng::{Purpose, stream};
@@ -193,7 +194,7 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
     let until = ControllerConfig { restarts: 0, max_iterations: None, patience: 2, ..config.clone() };
     let once = optimize_controller(Valued::Exact(&w), &until, |_| Flow::Continue).unwrap();
     assert_eq!((once.run_values.len(), once.stop), (1, StopReason::Patience));
-    let timed = ControllerConfig { time_limit: Some(0.5), ..until };
+    let timed = ControllerConfig { budget: Budget::seconds(0.5), ..until };
     let many = optimize_controller(Valued::Exact(&w), &timed, |_| Flow::Continue).unwrap();
     assert!(many.run_values.len() > 2 && many.stop == StopReason::TimeLimit, "{:?}", many.run_values);
     assert_eq!(many.run_values[0], once.run_values[0]);
@@ -201,7 +202,7 @@ fn restarts_keep_the_best_run_and_interruption_keeps_the_best_so_far() {
     // registers the rest; alone, it takes the whole limit.
     let alternate = ControllerConfig {
         patience: 1_000_000,
-        time_limit: Some(1.0),
+        budget: Budget::seconds(1.0),
         max_iterations: None,
         restarts: 0,
         memory: ceworld::ce::controller::Memory::Alternate,
@@ -239,7 +240,7 @@ fn bad_settings_are_named() {
         ("smoothing", ControllerConfig { smoothing: 0.0, ..Default::default() }),
         ("tolerance", ControllerConfig { tolerance: f64::NAN, ..Default::default() }),
         ("restarts", ControllerConfig { restarts: ceworld::ce::controller::MAX_RESTARTS + 1, ..Default::default() }),
-        ("time_limit", ControllerConfig { time_limit: Some(-1.0), ..Default::default() }),
+        ("time_limit", ControllerConfig { budget: Budget::seconds(-1.0), ..Default::default() }),
         // A memoryless stage of Moore machines would be a blind policy's.
         ("memoryless_patience", ControllerConfig { memoryless_patience: 3, ..Default::default() }),
         // Registers hold Mealy decisions; one register is flat nodes; 4^9 nodes are too many.
@@ -259,7 +260,7 @@ fn bad_settings_are_named() {
 fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     // Hallway: 2000 eight-node controllers take far longer than 10 ms to evaluate.
     let w = world("hallway.POMDP", 10, None);
-    let config = ControllerConfig { time_limit: Some(0.01), threads: Some(2), ..Default::default() };
+    let config = ControllerConfig { budget: Budget::seconds(0.01), threads: Some(2), ..Default::default() };
     let out = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
     assert_eq!(out.stop, StopReason::TimeLimit);
     assert_eq!(out.history.len(), 1);
@@ -270,12 +271,13 @@ fn the_time_limit_cuts_an_iteration_without_refitting_on_it() {
     // Sampled values: cut between groups of controllers, each group's values those of a whole
     // iteration.
     let w = world("hallway.POMDP", 60, None);
-    let config = ControllerConfig { samples: 3000, episodes: 50, time_limit: Some(0.01), ..config };
+    let config = ControllerConfig { samples: 3000, episodes: 50, budget: Budget::seconds(0.01), ..config };
     let out = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
     assert_eq!(out.stop, StopReason::TimeLimit);
     let first = &out.history[0];
     assert!(first.evaluated >= 1 && first.evaluated < 3000, "{}", first.evaluated);
-    let whole = ControllerConfig { samples: first.evaluated, time_limit: None, max_iterations: Some(1), ..config };
+    let whole =
+        ControllerConfig { samples: first.evaluated, budget: Budget::default(), max_iterations: Some(1), ..config };
     let all = optimize_controller(Valued::Sampled(&w), &whole, |_| Flow::Continue).unwrap();
     assert_eq!(all.history[0].record.mean.to_bits(), first.record.mean.to_bits());
     // The episodes run: K for each controller valued, the selection episodes for each of the
@@ -394,10 +396,11 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
 
 #[test]
 fn the_model_start_is_never_lost_and_sets_the_nodes() {
-    use ceworld::pointbased::{Budget, PointBased};
+    use ceworld::pointbased::PointBased;
     let w = world("4x3.95.POMDP", 10, None);
     let config = ControllerConfig { nodes: 3, samples: 50, max_iterations: Some(1), ..Default::default() };
-    let built = PointBased::solve(&w, Budget::within(config.time_limit), config.seed).controller(&w, 64, config.seed);
+    let built = PointBased::solve(&w, ceworld::pointbased::Budget::within(config.budget.time_limit), config.seed)
+        .controller(&w, 64, config.seed);
     let start = value(&w, &built, 1e-6);
     let found = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
     // One iteration: the controller built from the model is among its draws.
@@ -491,7 +494,7 @@ fn the_time_limit_holds_the_final_evaluation_of_sampled_values_too() {
     let config = ControllerConfig {
         nodes: 2,
         samples: 50,
-        time_limit: Some(1.0),
+        budget: Budget::seconds(1.0),
         patience: 1_000_000,
         eval_episodes: 10_000_000,
         ..ControllerConfig::defaults_for(ceworld::ce::controller::ValueKind::Sampled)

@@ -1,6 +1,7 @@
 //! The engine through its public API: sampling, counting, the CE update, stopping rules,
 //! determinism across thread counts, and policy files.
 
+use ceworld::ce::budget::Budget;
 use ceworld::ce::counting::count_episode;
 use ceworld::episodes::run::{run_recorded, run_with};
 use ceworld::rng::{EngineRng, Purpose, stream, stream_key};
@@ -173,7 +174,7 @@ fn stopping_rules() {
     let r = optimize(&world, start(), &config, |_| Flow::Continue).unwrap();
     assert_eq!(r.stop, StopReason::Target);
     assert!(r.history.last().unwrap().mean >= 1.5);
-    let config = CeConfig { time_limit: Some(1e-9), max_iterations: None, ..small(200, 1) };
+    let config = CeConfig { budget: Budget::seconds(1e-9), max_iterations: None, ..small(200, 1) };
     assert_eq!(optimize(&world, start(), &config, |_| Flow::Continue).unwrap().stop, StopReason::TimeLimit);
     let mut calls = 0;
     let r = optimize(&world, start(), &CeConfig { max_iterations: None, ..small(200, 1) }, |_| {
@@ -627,9 +628,9 @@ fn restarts_share_the_time_limit_stop_on_interruption_and_keep_the_first_of_equa
     };
     let config = CeConfig { restarts: 3, ..small(200, 3) };
     // A generous limit lets every run happen; a spent one stops after the first.
-    let (_, runs) = runs_of(&CeConfig { time_limit: Some(600.0), ..config.clone() }, None);
+    let (_, runs) = runs_of(&CeConfig { budget: Budget::seconds(600.0), ..config.clone() }, None);
     assert_eq!(runs, 3);
-    let (r, runs) = runs_of(&CeConfig { time_limit: Some(1e-9), max_iterations: None, ..config.clone() }, None);
+    let (r, runs) = runs_of(&CeConfig { budget: Budget::seconds(1e-9), max_iterations: None, ..config.clone() }, None);
     assert_eq!((runs, r.history.len(), r.stop), (1, 1, StopReason::TimeLimit));
     // Ctrl-C during the second run: no third run, and the result says interrupted.
     let (r, runs) = runs_of(&config, Some(4));
@@ -679,7 +680,7 @@ fn the_time_limit_holds_the_final_evaluation_too() {
     for restarts in [1, 2] {
         let config = CeConfig {
             samples: 100,
-            time_limit: Some(1.0),
+            budget: Budget::seconds(1.0),
             max_iterations: None,
             patience: 1_000_000,
             eval_episodes: 10_000_000,

@@ -1,6 +1,7 @@
 //! Settings by name (`ceworld::settings`): every setting a config serialises can be set by that
 //! name, so that a new setting reaches Python, checkpoints and provenance from its config alone.
 
+use ceworld::ce::budget::Budget;
 use ceworld::qlearn::Ties;
 use ceworld::settings::{Given, Setting, Settings};
 use ceworld::{CeConfig, ControllerConfig, Error, QConfig, WindowConfig};
@@ -40,7 +41,7 @@ fn every_ce_setting_is_set_by_its_name() {
         decision_smoothing: Some(0.125),
         patience: 3,
         max_iterations: Some(9),
-        time_limit: Some(2.5),
+        budget: Budget::seconds(2.5),
         target: Some(-1.5),
         seed: u64::MAX,
         threads: Some(2),
@@ -61,7 +62,7 @@ fn every_controller_setting_is_set_by_its_name() {
         patience: 5,
         max_iterations: Some(6),
         target: Some(1.5),
-        time_limit: Some(8.0),
+        budget: Budget::seconds(8.0),
         tolerance: 1e-3,
         seed: 12,
         threads: Some(1),

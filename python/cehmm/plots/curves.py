@@ -76,8 +76,9 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
     Args:
         runs: results of :func:`cehmm.optimize` or :func:`cehmm.optimize_controller`, history
             dicts (``{"mean": [...], ...}``: a rival's run as plain arrays; ``elite_threshold``,
-            ``best_so_far`` and ``seconds`` are drawn where given), or history files.
-        x: ``"iteration"`` or ``"seconds"``.
+            ``best_so_far``, ``seconds`` and ``env_steps`` are drawn where given), or history files.
+        x: ``"iteration"``, ``"seconds"`` or ``"env_steps"`` (the world's steps learning had
+            taken: runs compared at equal steps of the world).
         labels: one per run (default: the file's name, or the kind of result).
 
     Example:
@@ -90,8 +91,8 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
         ('iteration', 'value')
         >>> fig.savefig("curve.png")
     """
-    if x not in ("iteration", "seconds"):
-        raise _core.InvalidArgumentError(f"invalid x: {x!r} (expected 'iteration' or 'seconds')")
+    if x not in ("iteration", "seconds", "env_steps"):
+        raise _core.InvalidArgumentError(f"invalid x: {x!r} (expected 'iteration', 'seconds' or 'env_steps')")
     if not runs:
         raise TypeError("learning_curve() needs at least one run")
     fig = figure(figsize=(7.0, 4.2), layout="constrained")
@@ -115,7 +116,7 @@ def learning_curve(*runs: Any, x: str = "iteration", labels: Sequence[str] | Non
                 label=f"{label}: elite threshold",
             )
         ax.plot(xs, best, color=best_color, linewidth=1.6, linestyle="--", label=f"{label}: best so far")
-    ax.set_xlabel("iteration" if x == "iteration" else "seconds")
+    ax.set_xlabel({"iteration": "iteration", "seconds": "seconds", "env_steps": "steps of the world"}[x])
     ax.set_ylabel("value")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower right")

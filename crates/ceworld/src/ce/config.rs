@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::ce::budget::Budget;
 use crate::control::check_threads;
 use crate::error::{Error, Result};
 use crate::evaluate::MAX_EPISODES;
@@ -36,12 +37,11 @@ pub struct CeConfig {
     /// Stop after this many iterations.
     #[cfg_attr(feature = "cli", arg(long))]
     pub max_iterations: Option<usize>,
-    /// Stop after this many seconds (checked between iterations), the final evaluation (and
-    /// with restarts each run's score) included: the iterations stop early by what those take,
-    /// and an evaluation that does not fit is cut at the limit, with fewer episodes
-    /// ([`crate::evaluate::closing_reserve`]).
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub time_limit: Option<f64>,
+    /// The budgets in seconds and in the world's steps ([`Budget`]); with restarts, the runs
+    /// share them (each run's score between runs included).
+    #[serde(flatten)]
+    #[cfg_attr(feature = "cli", command(flatten))]
+    pub budget: Budget,
     /// Stop as soon as an iteration's mean reward reaches this value.
     #[cfg_attr(feature = "cli", arg(long))]
     pub target: Option<f64>,
@@ -76,7 +76,7 @@ impl Settings for CeConfig {
             "decision_smoothing" => self.decision_smoothing = s.optional_real()?,
             "patience" => self.patience = s.count()?,
             "max_iterations" => self.max_iterations = s.optional_count()?,
-            "time_limit" => self.time_limit = s.optional_real()?,
+            name if Budget::NAMES.contains(&name) => self.budget.set(s)?,
             "target" => self.target = s.optional_real()?,
             "seed" => self.seed = s.seed()?,
             "threads" => self.threads = s.optional_count()?,
@@ -137,7 +137,7 @@ impl Default for CeConfig {
             decision_smoothing: None,
             patience: 100,
             max_iterations: None,
-            time_limit: None,
+            budget: Budget::default(),
             target: None,
             seed: 0,
             threads: None,
@@ -164,13 +164,19 @@ impl CeConfig {
             target: self.target,
             patience: self.patience,
             max_iterations: self.max_iterations,
-            time_limit: self.time_limit,
+            time_limit: self.budget.time_limit,
         }
     }
 
     /// Number of elite episodes, `ceil(ρN)`.
     pub fn elite_count(&self) -> usize {
-        ((self.rho * self.samples as f64).ceil() as usize).clamp(1, self.samples)
+        self.elite_of(self.samples)
+    }
+
+    /// Number of elite episodes of an iteration of `n` episodes (one cut by a budget in steps
+    /// has fewer than N), `ceil(ρn)`.
+    pub fn elite_of(&self, n: usize) -> usize {
+        ((self.rho * n as f64).ceil() as usize).clamp(1, n.max(1))
     }
 
     /// Checks every setting, naming the bad one.
@@ -195,11 +201,7 @@ impl CeConfig {
         if self.max_iterations == Some(0) {
             return Err(Error::invalid("max_iterations", "0 (expected at least 1, or none)"));
         }
-        if let Some(t) = self.time_limit {
-            if t.is_nan() || t <= 0.0 {
-                return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
-            }
-        }
+        self.budget.validate()?;
         if let Some(t) = self.target {
             if t.is_nan() {
                 return Err(Error::invalid("target", "NaN (expected a reward)"));
@@ -240,9 +242,9 @@ mod tests {
         let ok = |c: CeConfig| c.validate().is_ok();
         let base = CeConfig::default();
         for t in [0.0, -1.0, f64::NAN] {
-            assert!(!ok(CeConfig { time_limit: Some(t), ..base.clone() }), "time_limit {t}");
+            assert!(!ok(CeConfig { budget: Budget::seconds(t), ..base.clone() }), "time_limit {t}");
         }
-        assert!(ok(CeConfig { time_limit: Some(1e-9), ..base.clone() }));
+        assert!(ok(CeConfig { budget: Budget::seconds(1e-9), ..base.clone() }));
         assert!(!ok(CeConfig { eval_episodes: 0, ..base.clone() }));
         assert!(ok(CeConfig { eval_episodes: MAX_EPISODES, ..base.clone() }));
         assert!(!ok(CeConfig { eval_episodes: MAX_EPISODES + 1, ..base.clone() }));

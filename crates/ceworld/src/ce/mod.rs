@@ -2,6 +2,7 @@
 //! forward–backward alternative for the memory, and the optimiser that iterates them; and the
 //! same method over whole deterministic controllers of a tabular world (model §8).
 
+pub mod budget;
 pub mod checkpoint;
 pub mod config;
 pub mod controller;

@@ -4,6 +4,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use crate::ce::budget::Metered;
 use crate::ce::checkpoint::{CeRun, FinishedRun, RunState};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
@@ -79,12 +80,14 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
     let pool = thread_pool(config.threads)?;
     // Before any copy of the tables: the run must fit in the memory this process may use.
     check_size(world, initial.layout(), config, pool.current_num_threads())?;
-    let (mut interrupted, mut stopped) = (None, false);
+    // Learning's episodes, their steps counted on from the sessions before.
+    let world = &Metered::new(world, saver.state.env_steps);
+    let (mut interrupted, mut stopped, mut out_of_steps) = (None, false, false);
     while saver.state.restart < config.restarts {
         let restart = saver.state.restart;
         let mut run = CeConfig { restarts: 1, seed: restart_seed(config.seed, restart), ..config.clone() };
         let resume = saver.state.run.take();
-        if let Some(limit) = config.time_limit {
+        if let Some(limit) = config.budget.time_limit {
             // A run's time limit is what was left when it started (its records count from there).
             let run_before = resume.as_ref().and_then(|r| r.history.last()).map_or(0.0, |r| r.seconds);
             let spent = if restart == 0 && resume.is_none() { saver.before } else { saver.seconds() - run_before };
@@ -93,7 +96,12 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
                 break;
             }
             // The first run always runs (at least one iteration), however little time is left.
-            run.time_limit = Some(left.max(f64::MIN_POSITIVE));
+            run.budget.time_limit = Some(left.max(f64::MIN_POSITIVE));
+        }
+        // A later run starts only while steps are left.
+        if restart > 0 && resume.is_none() && config.budget.spent(world.steps()) {
+            out_of_steps = true;
+            break;
         }
         // A run closes with its evaluation, and between restarts with its score too.
         let closings = if config.restarts > 1 { 2 } else { 1 };
@@ -110,10 +118,11 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
         if config.restarts == 1 {
             result.seconds = saver.seconds();
             result.checkpoint_error = saver.failed.take();
+            result.env_steps = world.steps();
             return Ok(result);
         }
         let policy = &result.policy;
-        let left = config.time_limit.map(|t| t - saver.seconds());
+        let left = config.budget.time_limit.map(|t| t - saver.seconds());
         let (scored, cut) =
             pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select, left))?;
         if cut {
@@ -128,6 +137,7 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
         }
         saver.state.finished.push(FinishedRun { score, result });
         saver.state.restart += 1;
+        saver.state.env_steps = world.steps();
         saver.save(true);
     }
     let mut runs: Vec<&FinishedRun> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
@@ -141,10 +151,14 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
     // Stopped by the caller: the search is, whichever run is returned.
     if let Some(halted) = stopped.then_some(StopReason::Interrupted).or(interrupted.as_ref().map(|r| r.result.stop)) {
         result.stop = halted;
+    } else if out_of_steps {
+        // The budget in steps ended the search, whichever run is returned.
+        result.stop = StopReason::MaxEnvSteps;
     }
     result.seconds = saver.seconds();
     result.restart_scores = scores;
     result.checkpoint_error = saver.failed.take();
+    result.env_steps = world.steps();
     Ok(result)
 }
 
@@ -187,7 +201,7 @@ fn digest(policy: &Hhmm) -> String {
 /// state `resume`, keeping of its time limit what `closings` evaluations of `eval_episodes`
 /// take ([`closing_reserve`]): its iterations stop that much before it.
 fn optimize_once<E: Episodes + ?Sized>(
-    world: &E,
+    world: &Metered<'_, E>,
     initial: Hhmm,
     config: &CeConfig,
     closings: usize,
@@ -209,42 +223,32 @@ fn optimize_once<E: Episodes + ?Sized>(
     let before = history.last().map_or(0.0, |r| r.seconds);
     // A resumed run whose last iteration meets a stopping rule (the same as before with the same
     // settings; new stopping rules may let it go on) ends at once.
-    let mut stop = history.last().and_then(|r| stopping_rule(config, r, unsuccessful, 0.0));
+    let mut stop = history.last().and_then(|r| {
+        let spent = config.budget.spent(world.steps()).then_some(StopReason::MaxEnvSteps);
+        stopping_rule(config, r, unsuccessful, 0.0).or(spent)
+    });
     // Episodes sampled elsewhere keep their records there.
     let recorded = stop.is_none() && remote.is_none();
-    let mut records = vec![0u16; if recorded { n * stride } else { 0 }];
-    let mut rewards = vec![0.0f64; n];
-    let mut lengths = vec![0u32; if recorded { n } else { 0 }];
-    let (mut keys, mut order): (Vec<u64>, Vec<usize>) = (vec![0; n], (0..n).collect());
-    let chunk = elite_count.div_ceil(pool.current_num_threads()).max(1);
+    let mut buffers = Buffers {
+        records: vec![0u16; if recorded { n * stride } else { 0 }],
+        rewards: vec![0.0f64; n],
+        lengths: vec![0u32; if recorded { n } else { 0 }],
+        keys: vec![0; n],
+        order: (0..n).collect(),
+        chunk: elite_count.div_ceil(pool.current_num_threads()).max(1),
+    };
     let earlier = saver.state.finished.iter().map(|r| r.result.history.len()).sum();
     while stop.is_none() {
-        let (iteration, seed) = (history.len(), config.seed);
-        let iteration_started = Instant::now();
-        let streams = Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 };
-        let sampled = pool.install(|| {
-            let records = remote.is_none().then_some((&mut records[..], &mut lengths[..]));
-            world.run(&policy, streams, 0, Batch { values: &mut rewards, records })
-        });
-        let counted = sampled.and_then(|()| {
-            let threshold = select_elite(&rewards, &mut keys, &mut order, elite_count, seed, iteration, &pool);
-            let elite = &order[..elite_count];
-            let counts = if let Some(remote) = remote {
-                Counts::Integer(remote.counts(&policy, streams, elite)?)
-            } else {
-                // Each episode's record up to where it stopped (model §1): counting stops there too.
-                let record_of =
-                    |k: usize| &records[k * stride..k * stride + lengths[k] as usize * layout.record_width()];
-                pool.install(|| count_elite(&policy, elite, &record_of, config.memory_update, chunk))
-            };
-            Ok((threshold, counts))
-        });
-        let (threshold, counts) = match counted {
+        let iteration = history.len();
+        let (iteration_started, steps_before) = (Instant::now(), world.steps());
+        let counted = buffers.iterate(world, &policy, config, iteration, remote, &pool);
+        let (sampled_n, threshold, counts) = match counted {
             Ok(counted) => counted,
             Err(Error::Interrupted) => {
                 // Cut by an interrupt: the iteration is dropped (a resumed run draws it again),
                 // the state is the one after the last whole iteration.
                 stop = Some(StopReason::Interrupted);
+                world.reset(steps_before);
                 if best.is_some() {
                     saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful));
                 }
@@ -252,8 +256,7 @@ fn optimize_once<E: Episodes + ?Sized>(
             }
             Err(e) => return Err(e),
         };
-        let elite = &order[..elite_count];
-
+        let (rewards, elite) = (&buffers.rewards[..sampled_n], &buffers.order[..config.elite_of(sampled_n)]);
         let mean = crate::evaluate::mean(rewards.iter().copied());
         let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
         if successful {
@@ -274,26 +277,33 @@ fn optimize_once<E: Episodes + ?Sized>(
             elite_mean: crate::evaluate::mean(elite.iter().map(|&k| rewards[k])),
             seconds: before + started.elapsed().as_secs_f64(),
             successful,
+            env_steps: world.steps(),
         };
         history.push(record.clone());
         let best_policy = || Ok(best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"));
         let flow = observer(&Observed { step: &record, best: &best_policy, run: saver.state.restart, earlier });
         let interrupted = world.interrupt().is_some_and(Interrupt::stopping).then_some(StopReason::Interrupted);
         // What the closing evaluations keep of the time limit, as this iteration's episodes ran.
-        let per_episode = iteration_started.elapsed().as_secs_f64() / n as f64;
-        let reserve = closing_reserve(config.time_limit, per_episode, closings * config.eval_episodes);
-        stop =
-            interrupted.or(StopReason::asked(flow)).or_else(|| stopping_rule(config, &record, unsuccessful, reserve));
+        let per_episode = iteration_started.elapsed().as_secs_f64() / sampled_n as f64;
+        let reserve = closing_reserve(config.budget.time_limit, per_episode, closings * config.eval_episodes);
+        let spent = config.budget.spent(record.env_steps).then_some(StopReason::MaxEnvSteps);
+        stop = interrupted
+            .or(StopReason::asked(flow))
+            .or_else(|| stopping_rule(config, &record, unsuccessful, reserve))
+            .or(spent);
+        saver.state.env_steps = record.env_steps;
         saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful));
     }
     let stop = stop.expect("the loop ends with a reason");
     // A run cut before its first iteration has nothing to keep.
     let (_, best_iteration, best_policy) = best.ok_or(Error::Interrupted)?;
     // Inside the time limit: the closing evaluations share what is left of it.
-    let left = config.time_limit.map(|t| (t - before - started.elapsed().as_secs_f64()) / closings as f64);
+    let left = config.budget.time_limit.map(|t| (t - before - started.elapsed().as_secs_f64()) / closings as f64);
     let (episodes, interrupted) = (config.eval_episodes, stop == StopReason::Interrupted);
+    // The final evaluation's steps are counted apart.
+    let evaluated = Metered::new(world.inner(), 0);
     let (evaluation, cut) =
-        pool.install(|| final_evaluation(world, &best_policy, episodes, config.seed, interrupted, left))?;
+        pool.install(|| final_evaluation(&evaluated, &best_policy, episodes, config.seed, interrupted, left))?;
     Ok(CeResult {
         policy: best_policy,
         last_policy: policy,
@@ -305,7 +315,83 @@ fn optimize_once<E: Episodes + ?Sized>(
         restart: 0,
         restart_scores: Vec::new(),
         checkpoint_error: None,
+        env_steps: world.steps(),
+        eval_env_steps: evaluated.steps(),
     })
+}
+
+/// An iteration's episodes, their order and the elite's counting, reused from one iteration to
+/// the next.
+struct Buffers {
+    records: Vec<u16>,
+    rewards: Vec<f64>,
+    lengths: Vec<u32>,
+    keys: Vec<u64>,
+    order: Vec<usize>,
+    /// Elite episodes counted together (integer counts).
+    chunk: usize,
+}
+
+impl Buffers {
+    /// Samples iteration `iteration` of `policy` (cut by a budget in steps: its elite is of the
+    /// episodes run), puts its elite first in `order` and counts it: the episodes run, the
+    /// index of the elite's worst, the counts.
+    fn iterate<E: Episodes + ?Sized>(
+        &mut self,
+        world: &Metered<'_, E>,
+        policy: &Hhmm,
+        config: &CeConfig,
+        iteration: usize,
+        remote: Option<&dyn Remote>,
+        pool: &rayon::ThreadPool,
+    ) -> Result<(usize, usize, Counts)> {
+        let seed = config.seed;
+        let streams = Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 };
+        let Buffers { records, rewards, lengths, keys, order, chunk } = self;
+        let m = pool.install(|| {
+            let records = remote.is_none().then_some((&mut records[..], &mut lengths[..]));
+            sample(world, policy, streams, rewards, records, config)
+        })?;
+        let elite_count = config.elite_of(m);
+        let threshold =
+            select_elite(&rewards[..m], &mut keys[..m], &mut order[..m], elite_count, seed, iteration, pool);
+        let elite = &order[..elite_count];
+        let counts = if let Some(remote) = remote {
+            Counts::Integer(remote.counts(policy, streams, elite)?)
+        } else {
+            // Each episode's record up to where it stopped (model §1): counting stops there too.
+            let (width, stride) = (policy.layout().record_width(), records.len() / rewards.len());
+            let record_of = |k: usize| &records[k * stride..k * stride + lengths[k] as usize * width];
+            pool.install(|| count_elite(policy, elite, &record_of, config.memory_update, *chunk))
+        };
+        Ok((m, threshold, counts))
+    }
+}
+
+/// Runs the iteration's episodes into `rewards` (and `records`, where kept): all of them, or,
+/// under a budget in steps, whole cuts ([`crate::ce::budget::Budget::cut`]) until the budget is
+/// spent (the first always). The episodes run: the first ones, in order.
+fn sample<E: Episodes + ?Sized>(
+    world: &Metered<'_, E>,
+    policy: &Hhmm,
+    streams: Streams,
+    rewards: &mut [f64],
+    mut records: Option<(&mut [u16], &mut [u32])>,
+    config: &CeConfig,
+) -> Result<usize> {
+    let Some(cut) = config.budget.cut(world.batch()) else {
+        world.run(policy, streams, 0, Batch { values: rewards, records })?;
+        return Ok(rewards.len());
+    };
+    let (n, mut start) = (rewards.len(), 0);
+    let stride = records.as_ref().map_or(0, |(r, _)| r.len() / n);
+    while start < n && (start == 0 || !config.budget.spent(world.steps())) {
+        let end = n.min(start + cut);
+        let records = records.as_mut().map(|(r, l)| (&mut r[start * stride..end * stride], &mut l[start..end]));
+        world.run(policy, streams, start, Batch { values: &mut rewards[start..end], records })?;
+        start = end;
+    }
+    Ok(start)
 }
 
 /// Where the episodes are sampled elsewhere, what counts the elite there; refuses the

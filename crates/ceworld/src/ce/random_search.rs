@@ -7,6 +7,7 @@
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
+use crate::ce::budget::Budget;
 use crate::ce::record::IterationRecord;
 use crate::ce::stepped::{Rules, Stepped};
 use crate::episodes::{Episodes, Streams};
@@ -29,8 +30,9 @@ pub struct RandomSearchConfig {
     pub patience: usize,
     /// Stop after this many iterations.
     pub max_iterations: Option<usize>,
-    /// Stop after this many seconds, the final evaluation included (cut at the limit).
-    pub time_limit: Option<f64>,
+    /// The budgets in seconds and in the world's steps ([`Budget`]).
+    #[serde(flatten)]
+    pub budget: Budget,
     /// Seed of every random stream.
     pub seed: u64,
     /// Worker threads (default: one per core).
@@ -47,7 +49,7 @@ impl Default for RandomSearchConfig {
             episodes: 100,
             patience: 20,
             max_iterations: None,
-            time_limit: None,
+            budget: Budget::default(),
             seed: 0,
             threads: None,
             eval_episodes: 10_000,
@@ -63,7 +65,7 @@ impl Settings for RandomSearchConfig {
             "episodes" => self.episodes = s.count()?,
             "patience" => self.patience = s.count()?,
             "max_iterations" => self.max_iterations = s.optional_count()?,
-            "time_limit" => self.time_limit = s.optional_real()?,
+            name if Budget::NAMES.contains(&name) => self.budget.set(s)?,
             "seed" => self.seed = s.seed()?,
             "threads" => self.threads = s.optional_count()?,
             "eval_episodes" => self.eval_episodes = s.count()?,
@@ -89,7 +91,7 @@ impl Stepped for RandomSearch {
         Rules {
             patience: c.patience,
             max_iterations: c.max_iterations,
-            time_limit: c.time_limit,
+            budget: c.budget,
             seed: c.seed,
             threads: c.threads,
             eval_episodes: c.eval_episodes,
@@ -103,10 +105,7 @@ impl Stepped for RandomSearch {
                 return Err(Error::invalid(name, "0 (expected at least 1)"));
             }
         }
-        if let Some(t) = c.time_limit.filter(|t| t.is_nan() || *t < 0.0) {
-            return Err(Error::invalid("time_limit", format!("{t} (expected seconds >= 0)")));
-        }
-        Ok(())
+        c.budget.validate()
     }
 
     fn start(world: &dyn Episodes, c: &RandomSearchConfig) -> Result<RandomSearch> {
@@ -117,7 +116,13 @@ impl Stepped for RandomSearch {
         Ok(RandomSearch::default())
     }
 
-    fn step(&mut self, world: &dyn Episodes, c: &RandomSearchConfig, iteration: usize) -> Result<IterationRecord> {
+    fn step(
+        &mut self,
+        world: &dyn Episodes,
+        c: &RandomSearchConfig,
+        iteration: usize,
+        spent: &dyn Fn() -> bool,
+    ) -> Result<IterationRecord> {
         let shape = world.shape();
         let mut rng = stream(c.seed, Purpose::Init, iteration as u64, 0);
         let controllers: Vec<Controller> = (0..c.samples)
@@ -129,9 +134,18 @@ impl Stepped for RandomSearch {
             })
             .collect();
         let streams = Streams { seed: c.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
-        let mut values = vec![0.0; c.samples * c.episodes];
-        world.run_controllers(&controllers, streams, c.episodes, &mut values)?;
-        let means: Vec<f64> = values.chunks(c.episodes).map(|v| v.iter().sum::<f64>() / c.episodes as f64).collect();
+        // In groups of whole batches of episodes, so that a spent budget cuts the iteration
+        // between two (the first always counts): its best is of the controllers valued.
+        let group = crate::ce::controller::group_size(world.batch(), c.episodes);
+        let mut means = Vec::with_capacity(c.samples);
+        for chunk in controllers.chunks(group) {
+            if !means.is_empty() && spent() {
+                break;
+            }
+            let mut values = vec![0.0; chunk.len() * c.episodes];
+            world.run_controllers(chunk, streams, c.episodes, &mut values)?;
+            means.extend(values.chunks(c.episodes).map(|v| v.iter().sum::<f64>() / c.episodes as f64));
+        }
         let (k, top) =
             means.iter().enumerate().fold((0, f64::NEG_INFINITY), |b, (k, &m)| if m > b.1 { (k, m) } else { b });
         let successful = self.best.as_ref().is_none_or(|(_, v)| top > *v);
@@ -147,6 +161,7 @@ impl Stepped for RandomSearch {
             elite_mean: top,
             seconds: 0.0,
             successful,
+            env_steps: 0,
         })
     }
 

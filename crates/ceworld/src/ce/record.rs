@@ -29,6 +29,10 @@ pub struct IterationRecord {
     pub seconds: f64,
     /// Whether the mean beat every earlier iteration's.
     pub successful: bool,
+    /// The world's steps learning had taken at the end of the iteration, every run and every
+    /// session together (what a budget in steps counts: [`crate::ce::budget`]; 0 on exact values).
+    #[serde(default)]
+    pub env_steps: u64,
 }
 
 impl IterationRecord {
@@ -95,6 +99,13 @@ pub struct CeResult {
     /// (a full disk must not cost the result), and the caller tells the user.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoint_error: Option<String>,
+    /// The world's steps learning took, every run and every session together (each run's score
+    /// between restarts included).
+    #[serde(default)]
+    pub env_steps: u64,
+    /// The world's steps of `evaluation`, counted apart.
+    #[serde(default)]
+    pub eval_env_steps: u64,
 }
 
 impl CeResult {
@@ -122,6 +133,7 @@ impl CeResult {
             ("evaluation_std_error", json!(result.evaluation.std_error)),
             ("stop", json!(result.stop.as_str())),
             ("interrupted", json!(result.interrupted())),
+            ("env_steps", json!(result.env_steps)),
             ("version", json!(crate::VERSION)),
         ] {
             provenance.insert(key.into(), value);

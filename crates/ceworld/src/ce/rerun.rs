@@ -99,13 +99,14 @@ mod tests {
         fn description(&self) -> serde_json::Value {
             Episodes::description(&self.world)
         }
-        fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+        fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<u64> {
             assert!(batch.records.is_none(), "episodes sampled elsewhere are run without records");
+            let mut steps = 0;
             for (k, values) in batch.values.chunks_mut(self.shard).enumerate() {
                 let part = Batch { values, records: None };
-                Episodes::run(&self.world, policy, streams, first + k * self.shard, part)?;
+                steps += Episodes::run(&self.world, policy, streams, first + k * self.shard, part)?;
             }
-            Ok(())
+            Ok(steps)
         }
         fn run_controllers(
             &self,
@@ -113,7 +114,7 @@ mod tests {
             streams: Streams,
             episodes: usize,
             values: &mut [f64],
-        ) -> Result<()> {
+        ) -> Result<u64> {
             Episodes::run_controllers(&self.world, controllers, streams, episodes, values)
         }
         fn remote(&self) -> Option<&dyn crate::episodes::Remote> {

@@ -20,9 +20,9 @@ use serde_json::Value;
 use crate::episodes::Episodes;
 use crate::error::{Error, Result};
 
-/// The settings a resumed run may change: its stopping rules, its time limit and its thread
-/// count (none of them changes what an iteration does).
-pub const FREE_SETTINGS: [&str; 5] = ["patience", "max_iterations", "time_limit", "target", "threads"];
+/// The settings a resumed run may change: its stopping rules, its budgets and its thread count
+/// (none of them changes what an iteration does).
+pub const FREE_SETTINGS: [&str; 6] = ["patience", "max_iterations", "time_limit", "max_env_steps", "target", "threads"];
 /// Largest checkpoint file read (bytes); a larger file is refused before it is read.
 pub const MAX_CHECKPOINT_BYTES: u64 = 1 << 34;
 /// Seconds between two checkpoints when none is given.
@@ -116,6 +116,10 @@ pub struct Checkpoint<K: Resumable> {
     pub run: Option<K::Run>,
     /// Wall seconds spent so far, every session together.
     pub seconds: f64,
+    /// The world's steps learning took so far, every session together, as of the state saved
+    /// (an iteration cut by an interrupt is dropped with its steps: a resume draws it again).
+    #[serde(default)]
+    pub env_steps: u64,
     /// The engine that wrote it.
     pub engine_version: String,
     /// What the runs start from, when the settings do not say it (episode CE: the SHA-256 of
@@ -140,6 +144,7 @@ impl<K: Resumable> Checkpoint<K> {
             finished: Vec::new(),
             run: None,
             seconds: 0.0,
+            env_steps: 0,
             engine_version: crate::VERSION.into(),
             start,
             outputs: Vec::new(),

@@ -10,6 +10,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
+use crate::ce::budget::{Budget, Metered};
 use crate::ce::record::IterationRecord;
 use crate::ce::resume::{Checkpointing, Resumable, Saver};
 use crate::ce::stopping::{Observed, StopReason};
@@ -28,8 +29,8 @@ pub struct Rules {
     pub patience: usize,
     /// Stop after this many iterations.
     pub max_iterations: Option<usize>,
-    /// Stop after this many seconds (every session together), checked between iterations.
-    pub time_limit: Option<f64>,
+    /// The budgets in seconds and in the world's steps ([`Budget`]).
+    pub budget: Budget,
     /// Seed of every random stream (the evaluation's too).
     pub seed: u64,
     /// Worker threads (default: one per core).
@@ -58,9 +59,18 @@ pub trait Stepped: Clone + Serialize + DeserializeOwned + Send + Sync {
     fn validate(config: &Self::Config) -> Result<()>;
     /// The state before the first iteration.
     fn start(world: &dyn Episodes, config: &Self::Config) -> Result<Self>;
-    /// Iteration `iteration` (from 0), its record's `seconds` left to the spine; an iteration is
-    /// successful when it finds a better result.
-    fn step(&mut self, world: &dyn Episodes, config: &Self::Config, iteration: usize) -> Result<IterationRecord>;
+    /// Iteration `iteration` (from 0), its record's `seconds` and `env_steps` left to the spine;
+    /// an iteration is successful when it finds a better result. `spent` says whether a budget
+    /// is spent: an optimiser that can cut its iteration asks it between its batches of
+    /// episodes (after the first). The world counts its steps: an iteration cut by an interrupt
+    /// is dropped, its steps with it.
+    fn step(
+        &mut self,
+        world: &dyn Episodes,
+        config: &Self::Config,
+        iteration: usize,
+        spent: &dyn Fn() -> bool,
+    ) -> Result<IterationRecord>;
     /// The best policy so far.
     fn policy(&self, world: &dyn Episodes) -> Result<Hhmm>;
 }
@@ -122,6 +132,10 @@ pub struct SteppedOutcome {
     pub seconds: f64,
     /// Why the last checkpoint could not be written, if it could not.
     pub checkpoint_error: Option<String>,
+    /// The world's steps learning took, every session together.
+    pub env_steps: u64,
+    /// The world's steps of `evaluation`, counted apart.
+    pub eval_env_steps: u64,
 }
 
 impl SteppedOutcome {
@@ -134,6 +148,7 @@ impl SteppedOutcome {
             ("iterations", json!(self.history.len())),
             ("stop", json!(self.stop.as_str())),
             ("interrupted", json!(self.stop == StopReason::Interrupted)),
+            ("env_steps", json!(self.env_steps)),
             ("evaluation_mean", json!(self.evaluation.mean)),
             ("evaluation_std_error", json!(self.evaluation.std_error)),
             ("evaluation_episodes", json!(self.evaluation.episodes)),
@@ -168,6 +183,10 @@ pub fn run_stepped_observed<O: Stepped>(
     crate::evaluate::check_episodes(rules.eval_episodes)?;
     let pool = thread_pool(rules.threads)?;
     let mut saver = Saver::<SteppedKind<O>>::new(world, config, checkpointing, None)?;
+    // Learning's episodes, their steps counted on from the sessions before.
+    let (metered, evaluated) = (Metered::new(world, saver.state.env_steps), world);
+    let world: &dyn Episodes = &metered;
+    let spent = || rules.budget.spent(metered.steps());
     let mut run = match saver.state.run.take() {
         Some(run) => run,
         None => SteppedRun { state: pool.install(|| O::start(world, config))?, history: Vec::new(), since: 0 },
@@ -180,27 +199,32 @@ pub fn run_stepped_observed<O: Stepped>(
             Some(StopReason::Patience)
         } else if rules.max_iterations.is_some_and(|m| iteration >= m) {
             Some(StopReason::MaxIterations)
+        } else if rules.budget.time_limit.is_some_and(|limit| saver.seconds() + reserve >= limit) {
+            Some(StopReason::TimeLimit)
         } else {
-            rules.time_limit.filter(|&limit| saver.seconds() + reserve >= limit).map(|_| StopReason::TimeLimit)
+            spent().then_some(StopReason::MaxEnvSteps)
         };
         // The stop rules are read afresh on resume (they may differ between sessions).
         if let Some(stop) = rule {
             break stop;
         }
         let mut next = run.state.clone();
-        let started = std::time::Instant::now();
-        let mut record = match pool.install(|| next.step(world, config, iteration)) {
+        let (started, steps_before) = (std::time::Instant::now(), metered.steps());
+        let mut record = match pool.install(|| next.step(world, config, iteration, &spent)) {
             Ok(record) => record,
-            // An iteration a stop cut is dropped: the state is the one before it.
+            // An iteration a stop cut is dropped, its steps with it: the state is the one before it.
             Err(Error::Interrupted) if world.interrupt().is_some_and(crate::control::Interrupt::stopping) => {
+                metered.reset(steps_before);
                 break StopReason::Interrupted;
             }
             Err(e) => return Err(e),
         };
         record.iteration = iteration;
         let per_episode = started.elapsed().as_secs_f64() / rules.episodes.max(1) as f64;
-        reserve = closing_reserve(rules.time_limit, per_episode, rules.eval_episodes);
+        reserve = closing_reserve(rules.budget.time_limit, per_episode, rules.eval_episodes);
         record.seconds = saver.seconds();
+        record.env_steps = metered.steps();
+        saver.state.env_steps = record.env_steps;
         run.state = next;
         run.since = if record.successful { 0 } else { run.since + 1 };
         run.history.push(record.clone());
@@ -214,9 +238,11 @@ pub fn run_stepped_observed<O: Stepped>(
     let policy = run.state.policy(world)?;
     // Inside the time limit: what is left of it (an interrupt does not cut it: the run's
     // iterations are over).
-    let left = rules.time_limit.map(|t| t - saver.seconds());
+    let left = rules.budget.time_limit.map(|t| t - saver.seconds());
     let (episodes, seed) = (rules.eval_episodes, rules.seed);
-    let (evaluation, _) = pool.install(|| final_evaluation(world, &policy, episodes, seed, false, left))?;
+    // The final evaluation's steps are counted apart.
+    let evaluated = Metered::new(evaluated, 0);
+    let (evaluation, _) = pool.install(|| final_evaluation(&evaluated, &policy, episodes, seed, false, left))?;
     Ok(SteppedOutcome {
         policy,
         history: run.history,
@@ -224,5 +250,7 @@ pub fn run_stepped_observed<O: Stepped>(
         evaluation,
         seconds: saver.seconds(),
         checkpoint_error: saver.failed.take(),
+        env_steps: metered.steps(),
+        eval_env_steps: evaluated.steps(),
     })
 }

@@ -17,6 +17,8 @@ pub enum StopReason {
     MaxIterations,
     /// `time_limit` reached.
     TimeLimit,
+    /// `max_env_steps` of the world taken by learning ([`crate::ce::budget::Budget`]).
+    MaxEnvSteps,
     /// An iteration's mean reached `target`.
     Target,
     /// The caller asked to stop (Ctrl-C).
@@ -32,6 +34,7 @@ impl StopReason {
             StopReason::Patience => "patience",
             StopReason::MaxIterations => "max_iterations",
             StopReason::TimeLimit => "time_limit",
+            StopReason::MaxEnvSteps => "max_env_steps",
             StopReason::Target => "target",
             StopReason::Interrupted => "interrupted",
             StopReason::Callback => "callback",
@@ -112,6 +115,7 @@ mod tests {
             StopReason::Patience,
             StopReason::MaxIterations,
             StopReason::TimeLimit,
+            StopReason::MaxEnvSteps,
             StopReason::Target,
             StopReason::Interrupted,
             StopReason::Callback,
@@ -119,7 +123,10 @@ mod tests {
         .iter()
         .map(|s| s.as_str())
         .collect();
-        assert_eq!(names, ["patience", "max_iterations", "time_limit", "target", "interrupted", "callback"]);
+        assert_eq!(
+            names,
+            ["patience", "max_iterations", "time_limit", "max_env_steps", "target", "interrupted", "callback"]
+        );
         for (reason, name) in [(StopReason::Callback, "\"callback\""), (StopReason::Interrupted, "\"interrupted\"")] {
             assert_eq!(serde_json::to_string(&reason).unwrap(), name);
         }

@@ -112,9 +112,10 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
         );
     }
     println!(
-        "{}: {} iterations in {:.1}s, best controller from iteration {}: {what}; saved {}",
+        "{}: {} iterations ({} steps of the world) in {:.1}s, best controller from iteration {}: {what}; saved {}",
         outcome.stop.as_str(),
         outcome.history.len(),
+        outcome.env_steps,
         outcome.seconds,
         outcome.best_iteration,
         args.output.out.display()

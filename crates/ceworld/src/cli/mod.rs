@@ -341,9 +341,10 @@ fn optimize_in<W: World>(world: &W, args: &OptimizeArgs) -> Result<()> {
     }
     let d = decimals(e.std_error);
     println!(
-        "{}: {} iterations in {:.1}s, best iteration {} (mean {}); evaluation on {} fresh episodes: {} ± {} (min {}, max {}); saved {}",
+        "{}: {} iterations ({} steps of the world) in {:.1}s, best iteration {} (mean {}); evaluation on {} fresh episodes: {} ± {} (min {}, max {}); saved {}",
         result.stop.as_str(),
         result.history.len(),
+        result.env_steps,
         result.seconds,
         result.best_iteration,
         fixed(result.history[result.best_iteration].mean, d),

@@ -62,9 +62,10 @@ pub(crate) fn run_named(args: &RunArgs) -> Result<()> {
     let e = &outcome.evaluation;
     let d = decimals(e.std_error);
     println!(
-        "{}: {} iterations in {:.1}s; evaluation on {} fresh episodes: {} ± {}; saved {}",
+        "{}: {} iterations ({} steps of the world) in {:.1}s; evaluation on {} fresh episodes: {} ± {}; saved {}",
         outcome.stop.as_str(),
         outcome.history.len(),
+        outcome.env_steps,
         outcome.seconds,
         e.episodes,
         fixed(e.mean, d),

@@ -73,23 +73,26 @@ pub trait Episodes: Sync {
     fn description(&self) -> Value;
     /// Runs the episodes `first..first + batch.values.len()` under `policy`, episode `k` drawing
     /// the policy's (and, for a world run by the engine, the world's) randomness from
-    /// `streams.episode(k)`, on the current rayon pool.
-    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()>;
+    /// `streams.episode(k)`, on the current rayon pool; returns the world's steps they took
+    /// (the sum of their lengths: what a budget in environment steps counts).
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<u64>;
     /// Runs episodes `0..episodes` of each of `controllers` (model §8), writing the value of
     /// episode `k` of controller `c` at `values[c·episodes + k]`, on the current rayon pool.
     /// Episode `k` of every controller draws the world's randomness from `streams.episode(k)`
     /// (a controller draws none): common random numbers, so that two controllers are compared
-    /// on the same episodes as far as their decisions let the world's draws agree.
+    /// on the same episodes as far as their decisions let the world's draws agree. Returns the
+    /// world's steps they took.
     fn run_controllers(
         &self,
         controllers: &[Controller],
         streams: Streams,
         episodes: usize,
         values: &mut [f64],
-    ) -> Result<()>;
+    ) -> Result<u64>;
     /// Runs as [`Episodes::run_controllers`] and, where an episode's value is the discounted sum
-    /// of its steps' rewards, adds each step's credit to `credit` ([`credit`]) and returns true;
-    /// elsewhere (by default) leaves `credit` as it is and returns false.
+    /// of its steps' rewards, adds each step's credit to `credit` ([`credit`]) and says so;
+    /// elsewhere (by default) leaves `credit` as it is. Returns the world's steps and whether
+    /// `credit` was added to.
     fn run_controllers_credited(
         &self,
         controllers: &[Controller],
@@ -97,9 +100,9 @@ pub trait Episodes: Sync {
         episodes: usize,
         values: &mut [f64],
         credit: &mut StepCredit,
-    ) -> Result<bool> {
+    ) -> Result<(u64, bool)> {
         let _ = credit;
-        self.run_controllers(controllers, streams, episodes, values).map(|()| false)
+        self.run_controllers(controllers, streams, episodes, values).map(|steps| (steps, false))
     }
 
     /// What may stop these episodes from outside, if anything: where a stop is asked, the runs
@@ -112,6 +115,12 @@ pub trait Episodes: Sync {
     /// multiple of it give the episodes of the whole evaluation.
     fn slice(&self) -> usize {
         SLICE
+    }
+    /// Episodes the world runs together (a vector environment's size): runs of episodes that
+    /// start on a multiple of it give the episodes of one run; 1 (the default) where each
+    /// episode is its own. What a budget in steps cuts an iteration at ([`crate::ce::budget`]).
+    fn batch(&self) -> usize {
+        1
     }
     /// Where the episodes are sampled elsewhere (other processes, other machines): their
     /// records stay there and the elite's counts come from [`Remote::counts`]; such a source
@@ -202,16 +211,17 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
         self.episodes.description()
     }
 
-    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<u64> {
         if batch.records.is_some() {
             self.interrupt.check()?;
             return self.episodes.run(policy, streams, first, batch);
         }
+        let mut steps = 0;
         for (k, values) in batch.values.chunks_mut(SLICE).enumerate() {
             self.interrupt.check()?;
-            self.episodes.run(policy, streams, first + k * SLICE, Batch { values, records: None })?;
+            steps += self.episodes.run(policy, streams, first + k * SLICE, Batch { values, records: None })?;
         }
-        Ok(())
+        Ok(steps)
     }
 
     fn run_controllers(
@@ -220,7 +230,7 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
         streams: Streams,
         episodes: usize,
         values: &mut [f64],
-    ) -> Result<()> {
+    ) -> Result<u64> {
         self.interrupt.check()?;
         self.episodes.run_controllers(controllers, streams, episodes, values)
     }
@@ -232,7 +242,7 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
         episodes: usize,
         values: &mut [f64],
         credit: &mut StepCredit,
-    ) -> Result<bool> {
+    ) -> Result<(u64, bool)> {
         self.interrupt.check()?;
         self.episodes.run_controllers_credited(controllers, streams, episodes, values, credit)
     }
@@ -243,6 +253,10 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
 
     fn slice(&self) -> usize {
         self.episodes.slice()
+    }
+
+    fn batch(&self) -> usize {
+        self.episodes.batch()
     }
 
     fn remote(&self) -> Option<&dyn Remote> {
@@ -263,9 +277,9 @@ impl<W: World> Episodes for W {
         self.to_json()
     }
 
-    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<u64> {
         let rng = |i: usize| streams.episode(first + i);
-        match batch.records {
+        let steps = match batch.records {
             Some((records, lengths)) => {
                 let stride = self.horizon() * policy.layout().record_width();
                 records
@@ -273,17 +287,26 @@ impl<W: World> Episodes for W {
                     .zip(lengths.par_iter_mut())
                     .zip(batch.values.par_iter_mut())
                     .enumerate()
-                    .for_each(|(i, ((record, length), value))| {
+                    .map(|(i, ((record, length), value))| {
                         let (v, steps) = run_recorded(self, policy, &mut rng(i), record);
                         *value = v;
                         *length = steps as u32;
-                    });
+                        steps as u64
+                    })
+                    .sum()
             }
-            None => batch.values.par_iter_mut().enumerate().for_each(|(i, value)| {
-                *value = run_with(self, policy, &mut rng(i), |_, _, _, _, _| {});
-            }),
-        }
-        Ok(())
+            None => batch
+                .values
+                .par_iter_mut()
+                .enumerate()
+                .map(|(i, value)| {
+                    let mut steps = 0u64;
+                    *value = run_with(self, policy, &mut rng(i), |_, _, _, _, _| steps += 1);
+                    steps
+                })
+                .sum(),
+        };
+        Ok(steps)
     }
 
     fn run_controllers(
@@ -292,11 +315,18 @@ impl<W: World> Episodes for W {
         streams: Streams,
         episodes: usize,
         values: &mut [f64],
-    ) -> Result<()> {
-        values.par_iter_mut().with_min_len(8).enumerate().for_each(|(i, value)| {
-            *value = run_controller(self, &controllers[i / episodes], &mut streams.episode(i % episodes));
-        });
-        Ok(())
+    ) -> Result<u64> {
+        let steps = values
+            .par_iter_mut()
+            .with_min_len(8)
+            .enumerate()
+            .map(|(i, value)| {
+                let (v, steps) = run_controller(self, &controllers[i / episodes], &mut streams.episode(i % episodes));
+                *value = v;
+                steps as u64
+            })
+            .sum();
+        Ok(steps)
     }
 
     fn tabular(&self) -> Option<&PomdpWorld> {

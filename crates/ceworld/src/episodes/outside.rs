@@ -189,7 +189,7 @@ impl<B: BatchWorld> Lockstep<B> {
         world_seed: u64,
         first: usize,
         out: BatchOut<'_>,
-    ) -> Result<()> {
+    ) -> Result<u64> {
         let BatchOut { values, records, lengths, step_rewards } = out;
         let Shape { observations: n_obs, horizon, .. } = self.shape;
         let width = deciders.width();
@@ -274,7 +274,7 @@ impl<B: BatchWorld> Lockstep<B> {
             }
             *value = v;
         }
-        Ok(())
+        Ok(lengths.iter().map(|&l| u64::from(l)).sum())
     }
 
     /// The world's own seed for batch `chunk` of `streams`, apart from every stream of the policy.
@@ -407,7 +407,11 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         self.batch
     }
 
-    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<()> {
+    fn batch(&self) -> usize {
+        self.batch
+    }
+
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<u64> {
         let mut world = self.lock();
         let deciders = PolicyDeciders { policy, streams };
         let stride = self.shape.horizon * deciders.width();
@@ -425,7 +429,7 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
             (&mut own_records[..], &mut own_lengths[..], false)
         };
         let mut step_rewards = vec![0.0f64; m * self.shape.horizon];
-        let mut start = 0;
+        let (mut start, mut steps) = (0, 0);
         while start < n {
             let k = first + start;
             let chunk = k / self.batch;
@@ -438,10 +442,10 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
             let step_rewards = &mut step_rewards[..(end - start) * self.shape.horizon];
             let out = BatchOut { values: &mut batch.values[start..end], records, lengths, step_rewards };
             let (world, seed) = (&mut *world, Self::world_seed(streams, chunk as u64));
-            B::on_thread(|| self.run_batch(world, &deciders, seed, k, out))?;
+            steps += B::on_thread(|| self.run_batch(world, &deciders, seed, k, out))?;
             start = end;
         }
-        Ok(())
+        Ok(steps)
     }
 
     /// Batches hold whole controllers where `episodes` fits in one (as many as fit, every batch
@@ -457,8 +461,8 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         streams: Streams,
         episodes: usize,
         values: &mut [f64],
-    ) -> Result<()> {
-        self.controllers(controllers, streams, episodes, values, None).map(|_| ())
+    ) -> Result<u64> {
+        self.controllers(controllers, streams, episodes, values, None).map(|(steps, _)| steps)
     }
 
     fn run_controllers_credited(
@@ -468,14 +472,15 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         episodes: usize,
         values: &mut [f64],
         credit: &mut StepCredit,
-    ) -> Result<bool> {
+    ) -> Result<(u64, bool)> {
         self.controllers(controllers, streams, episodes, values, Some(credit))
     }
 }
 
 impl<B: BatchWorld> Lockstep<B> {
     /// [`Episodes::run_controllers`], adding each step's credit to `credit` where one is given
-    /// and the world's value is the discounted sum of its rewards (then true).
+    /// and the world's value is the discounted sum of its rewards (then true); the world's
+    /// steps and whether credit was added.
     fn controllers(
         &self,
         controllers: &[Controller],
@@ -483,7 +488,7 @@ impl<B: BatchWorld> Lockstep<B> {
         episodes: usize,
         values: &mut [f64],
         mut credit: Option<&mut StepCredit>,
-    ) -> Result<bool> {
+    ) -> Result<(u64, bool)> {
         let mut world = self.lock();
         let (n_obs, horizon) = (self.shape.observations, self.shape.horizon);
         if !world.additive() {
@@ -497,7 +502,7 @@ impl<B: BatchWorld> Lockstep<B> {
         self.check_batch(m, 2 * stride as u64 + 4)?;
         let (mut records, mut lengths) = (vec![0u16; m * stride], vec![0u32; m]);
         let mut step_rewards = vec![0.0f64; m * horizon];
-        let mut start = 0;
+        let (mut start, mut steps) = (0, 0);
         while start < values.len() {
             let (chunk, end) = if episodes <= self.batch {
                 (0, values.len().min(start + per_batch))
@@ -512,7 +517,7 @@ impl<B: BatchWorld> Lockstep<B> {
                 step_rewards: &mut step_rewards[..(end - start) * horizon],
             };
             let (world, seed) = (&mut *world, Self::world_seed(streams, chunk));
-            B::on_thread(|| self.run_batch(world, &deciders, seed, start, out))?;
+            steps += B::on_thread(|| self.run_batch(world, &deciders, seed, start, out))?;
             if let Some(credit) = credit.as_deref_mut() {
                 for i in 0..end - start {
                     let (c, steps) = ((start + i) / episodes, lengths[i] as usize);
@@ -527,7 +532,7 @@ impl<B: BatchWorld> Lockstep<B> {
             }
             start = end;
         }
-        Ok(credit.is_some())
+        Ok((steps, credit.is_some()))
     }
 }
 

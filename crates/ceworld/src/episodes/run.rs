@@ -109,22 +109,24 @@ where
     world.reward(&state)
 }
 
-/// Runs one episode of `world` under the deterministic `controller` and returns `V`: the
-/// randomness of `rng` is the world's alone.
+/// Runs one episode of `world` under the deterministic `controller` and returns `V` and the
+/// number of steps run: the randomness of `rng` is the world's alone.
 #[inline]
-pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> f64 {
+pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> (f64, usize) {
     let n_obs = world.n_observations();
     let mut state = world.reset(rng);
     let mut node = 0u32;
-    for _ in 0..world.horizon() {
+    let mut steps = 0;
+    for t in 0..world.horizon() {
         let y = world.observe(&state, rng);
         let d = controller.step(&mut node, y, n_obs);
         world.step(&mut state, d as usize, rng);
+        steps = t + 1;
         if world.done(&state) {
             break;
         }
     }
-    world.reward(&state)
+    (world.reward(&state), steps)
 }
 
 #[cfg(test)]
@@ -179,10 +181,10 @@ mod tests {
         // Node 0 forever, deciding 1: the odd steps pay.
         let stuck = Controller::moore(vec![1, 0, 0], vec![0; 6]);
         let whole = Parity { stop: None };
-        assert_eq!(run_controller(&whole, &echo, rng), 4.0 + 2.0);
-        assert_eq!(run_controller(&whole, &stuck, rng), 2.0 + 2.0);
+        assert_eq!(run_controller(&whole, &echo, rng), (4.0 + 2.0, 4));
+        assert_eq!(run_controller(&whole, &stuck, rng), (2.0 + 2.0, 4));
         let short = Parity { stop: Some(3) };
-        assert_eq!(run_controller(&short, &echo, rng), 3.0 + 1.5);
+        assert_eq!(run_controller(&short, &echo, rng), (3.0 + 1.5, 3));
         // The same as the controller's HHMM, step by step, and as a rollout.
         let rollout = crate::evaluate::rollout(&short, &echo.to_hhmm(2, 2).unwrap(), 0, 0).unwrap();
         assert_eq!((rollout.len(), rollout.is_empty(), rollout.reward), (3, false, 4.5));

@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::ce::budget::Budget;
 use crate::error::{Error, Result};
 use crate::settings::{Given, Setting, Settings};
 
@@ -130,13 +131,12 @@ pub struct ControllerConfig {
     /// Stop once the best value so far reaches this.
     #[cfg_attr(feature = "cli", arg(long))]
     pub target: Option<f64>,
-    /// Stop after this many seconds (checked before each controller's evaluation on exact
-    /// values, between groups of about 1024 episodes on sampled ones, before each iteration on
-    /// a backend: an iteration cut by it does not refit the laws). It holds the returned
-    /// controller's evaluation on sampled values too: the iterations stop early by what it
-    /// would take, and it is cut at the limit, with fewer episodes ([`crate::evaluate::closing_reserve`]).
-    #[cfg_attr(feature = "cli", arg(long))]
-    pub time_limit: Option<f64>,
+    /// The budgets in seconds and in the world's steps ([`Budget`]; a budget in steps on
+    /// sampled values only). The runs share them; with `memory="alternate"`, each run of the
+    /// first round but the last ends at its share of the time limit ([`super::memory::ALTERNATE_SHARES`]).
+    #[serde(flatten)]
+    #[cfg_attr(feature = "cli", command(flatten))]
+    pub budget: Budget,
     /// Absolute tolerance of each controller's infinite-horizon value (discount below 1), and
     /// the least gain that counts as progress.
     #[cfg_attr(feature = "cli", arg(long, default_value_t = ControllerConfig::default().tolerance))]
@@ -281,7 +281,7 @@ impl Settings for ControllerConfig {
             "patience" => self.patience = s.count()?,
             "max_iterations" => self.max_iterations = s.optional_count()?,
             "target" => self.target = s.optional_real()?,
-            "time_limit" => self.time_limit = s.optional_real()?,
+            name if Budget::NAMES.contains(&name) => self.budget.set(s)?,
             "tolerance" => self.tolerance = s.real()?,
             "seed" => self.seed = s.seed()?,
             "threads" => self.threads = s.optional_count()?,
@@ -318,7 +318,7 @@ impl Default for ControllerConfig {
             patience: 50,
             max_iterations: None,
             target: None,
-            time_limit: None,
+            budget: Budget::default(),
             tolerance: 1e-6,
             seed: 0,
             threads: None,
@@ -368,7 +368,7 @@ impl ControllerConfig {
 
     /// The most runs: `restarts`, or for 0 as many as the time limit allows (one without one).
     pub fn runs(&self) -> usize {
-        match (self.restarts, self.time_limit) {
+        match (self.restarts, self.budget.time_limit) {
             (0, Some(_)) => MAX_RESTARTS,
             (0, None) => 1,
             (n, _) => n,
@@ -418,7 +418,7 @@ impl ControllerConfig {
             target: self.target,
             patience: self.patience,
             max_iterations: self.max_iterations,
-            time_limit: self.time_limit,
+            time_limit: self.budget.time_limit,
         }
     }
 
@@ -467,11 +467,7 @@ impl ControllerConfig {
         {
             return Err(Error::invalid("target", format!("{t} (expected a finite number)")));
         }
-        if let Some(t) = self.time_limit
-            && !(t > 0.0 && t.is_finite())
-        {
-            return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
-        }
+        self.budget.validate()?;
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
             return Err(Error::invalid("tolerance", format!("{} (expected a positive number)", self.tolerance)));
         }

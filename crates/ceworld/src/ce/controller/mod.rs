@@ -22,6 +22,7 @@ pub mod value;
 
 use rayon::prelude::*;
 
+use crate::ce::budget::Metered;
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, Interrupt, thread_pool};
@@ -84,6 +85,9 @@ pub fn optimize_controller_observed(
     mut observe: impl FnMut(&Observed<'_, ControllerIteration>) -> Flow,
 ) -> Result<ControllerOutcome> {
     config.validate()?;
+    if world.kind() != ValueKind::Sampled {
+        config.budget.check_sampled("exact values")?;
+    }
     let shape = world.episodes().shape();
     let (n_actions, y1) = (shape.decisions, shape.observations);
     let start = match world {
@@ -109,9 +113,11 @@ pub fn optimize_controller_observed(
         return Err(crate::error::Error::CheckpointMismatch("the checkpoint's laws do not fit this search".into()));
     }
     let pool = thread_pool(config.threads)?;
+    // Learning's episodes, their steps counted on from the sessions before.
+    let metered = Metered::new(world.episodes(), saver.state.env_steps);
     let values = match world {
         Valued::Exact(w) => Values::Exact(ControllerValue::new(w, config.tolerance)),
-        Valued::Sampled(w) => Values::Sampled(w),
+        Valued::Sampled(_) => Values::Sampled(&metered),
         Valued::ExactElsewhere(w, remote) => Values::ExactElsewhere(w, remote),
     };
     let most = start.as_ref().map_or(config.most_nodes(), |s| s.nodes() + config.growths);
@@ -119,15 +125,23 @@ pub fn optimize_controller_observed(
     let episodes = std::sync::atomic::AtomicU64::new(0);
     let reserve = std::sync::atomic::AtomicU64::new(0);
     let (scores, bar) = kept_values(&saver.state)?;
-    let search = Search { config, values, seen, scores, bar, episodes, reserve, start, y1, n_actions, pool };
-    let (mut interrupted, mut stopped, mut out_of_time) = (None, false, false);
+    let meter = &metered;
+    let search = Search { config, values, meter, seen, scores, bar, episodes, reserve, start, y1, n_actions, pool };
+    // What ended the search before its runs were over, if anything.
+    let (mut interrupted, mut ended) = (None, None);
     while saver.state.restart < config.runs() {
         let restart = saver.state.restart;
         let resume = saver.state.run.take();
         // A later run starts only while time is left (the first always runs).
-        if restart > 0 && resume.is_none() && config.time_limit.is_some_and(|t| saver.seconds() + search.reserve() >= t)
+        if restart > 0
+            && resume.is_none()
+            && config.budget.time_limit.is_some_and(|t| saver.seconds() + search.reserve() >= t)
         {
-            out_of_time = true;
+            ended = Some(StopReason::TimeLimit);
+            break;
+        }
+        if restart > 0 && resume.is_none() && config.budget.spent(metered.steps()) {
+            ended = Some(StopReason::MaxEnvSteps);
             break;
         }
         // The later runs skip the memoryless stage: an earlier run found its policy.
@@ -138,7 +152,7 @@ pub fn optimize_controller_observed(
             Err(Error::Interrupted)
                 if !saver.state.finished.is_empty() && !search.interrupt().is_some_and(Interrupt::aborted) =>
             {
-                stopped = true;
+                ended = Some(StopReason::Interrupted);
                 break;
             }
             run => run?,
@@ -155,6 +169,7 @@ pub fn optimize_controller_observed(
         }
         saver.state.finished.push(run);
         saver.state.restart += 1;
+        saver.state.env_steps = metered.steps();
         saver.save(true);
         // Runs until the time limit end with the target too. Past the time limit no run starts
         // (checked above): a run stopped by its share of the limit is followed by the next.
@@ -163,28 +178,13 @@ pub fn optimize_controller_observed(
         }
     }
     let runs: Vec<&FinishedSearch> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
-    // The first run with the highest value.
-    let best = (0..runs.len()).fold(0, |b, i| if runs[i].value > runs[b].value { i } else { b });
-    let kept = runs[best];
-    let mut outcome = ControllerOutcome {
-        policy: kept.controller.to_hhmm(y1, n_actions)?,
-        value: kept.value,
-        kind: world.kind(),
-        evaluation: None,
-        best_iteration: kept.best_iteration,
-        restart: best,
-        run_values: runs.iter().map(|r| r.value).collect(),
-        history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
-        stop: match (stopped, out_of_time) {
-            (true, _) => StopReason::Interrupted,
-            (false, true) => StopReason::TimeLimit,
-            (false, false) => runs.last().expect("at least one run").stop,
-        },
-        seconds: 0.0,
-        checkpoint_error: None,
-    };
+    let mut outcome = ControllerOutcome::of_runs(&runs, ended, world.kind(), (y1, n_actions))?;
+    outcome.env_steps = metered.steps();
     if let Valued::Sampled(w) = world {
-        search.evaluate(w, &mut outcome, config.time_limit.map(|t| t - saver.seconds()))?;
+        // The final evaluation's steps are counted apart.
+        let evaluated = Metered::new(w, 0);
+        search.evaluate(&evaluated, &mut outcome, config.budget.time_limit.map(|t| t - saver.seconds()))?;
+        outcome.eval_env_steps = evaluated.steps();
     }
     outcome.seconds = saver.seconds();
     outcome.checkpoint_error = saver.failed.take();
@@ -192,8 +192,9 @@ pub fn optimize_controller_observed(
 }
 
 /// Controllers valued at once on sampled values with `episodes` each, where a world runs
-/// `slice` episodes together: whole batches of about `GROUP_EPISODES` episodes.
-fn group_size(slice: usize, episodes: usize) -> usize {
+/// `slice` episodes together ([`Episodes::batch`]): whole batches of about `GROUP_EPISODES`
+/// episodes, between which the time limit and a budget in steps may cut an iteration.
+pub(crate) fn group_size(slice: usize, episodes: usize) -> usize {
     const GROUP_EPISODES: usize = 1024;
     let per_batch = if episodes <= slice { (slice / episodes).max(1) } else { 1 };
     per_batch * GROUP_EPISODES.div_ceil(per_batch * episodes).max(1)
@@ -210,6 +211,8 @@ enum Values<'a> {
 struct Search<'a> {
     config: &'a ControllerConfig,
     values: Values<'a>,
+    /// The world's steps learning took (sampled values).
+    meter: &'a Metered<'a, dyn Episodes + 'a>,
     /// Exact values already computed.
     seen: Seen,
     /// Scores on the selection episodes already computed (kept by checkpoints).
@@ -280,18 +283,18 @@ impl Search<'_> {
                 let streams = Streams { seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
                 // In groups of whole batches, so that the time limit can cut the iteration
                 // between two (the first always counts) and the values are the same as in one.
-                let group = if world.remote().is_some() { samples } else { group_size(world.slice(), k) };
+                let group = if world.remote().is_some() { samples } else { group_size(world.batch(), k) };
                 let mut valued = Vec::with_capacity(samples);
                 let rows = StepCredit::rows_of(&controllers[0]);
                 let mut credit = (self.config.credit == Credit::Steps).then(|| StepCredit::new(0, rows));
                 for (g, chunk) in controllers.chunks(group).enumerate() {
-                    if g > 0 && over_time() {
+                    if g > 0 && (over_time() || self.spent()) {
                         break;
                     }
                     let mut values = vec![0.0; chunk.len() * k];
                     if let Some(all) = credit.as_mut() {
                         let mut part = StepCredit::new(chunk.len(), rows);
-                        if world.run_controllers_credited(chunk, streams, k, &mut values, &mut part)? {
+                        if world.run_controllers_credited(chunk, streams, k, &mut values, &mut part)?.1 {
                             all.append(part);
                         } else {
                             credit = None;
@@ -307,6 +310,11 @@ impl Search<'_> {
                 Ok((valued, credit))
             }
         })
+    }
+
+    /// Whether learning has spent the budget in steps.
+    fn spent(&self) -> bool {
+        self.config.budget.spent(self.meter.steps())
     }
 
     /// Counts `episodes` of the world run for the next record.
@@ -375,12 +383,12 @@ impl Search<'_> {
         // Alternating memories: in the first round, each run but the last ends by its share of
         // the time limit, so that the others have the rest.
         let shared = config.memory == Memory::Alternate && restart + 1 < config.runs();
-        let share = ALTERNATE_SHARES.get(restart).zip(config.time_limit.filter(|_| shared)).map(|(s, t)| s * t);
+        let share = ALTERNATE_SHARES.get(restart).zip(config.budget.time_limit.filter(|_| shared)).map(|(s, t)| s * t);
         // A resumed run whose last iteration meets a stopping rule ends at once.
-        let resumed_stop = state
-            .history
-            .last()
-            .and_then(|r| rules.check(state.history.len(), r.best_so_far, state.since_progress, r.record.seconds));
+        let resumed_stop = state.history.last().and_then(|r| {
+            let spent = self.spent().then_some(StopReason::MaxEnvSteps);
+            rules.check(state.history.len(), r.best_so_far, state.since_progress, r.record.seconds).or(spent)
+        });
         let stop = if let Some(stop) = resumed_stop {
             stop
         } else {
@@ -389,9 +397,9 @@ impl Search<'_> {
             loop {
                 let iteration = state.history.len();
                 // The time limit as an instant, so that the exact values can check it as they go.
-                let limit = config.time_limit.map(|t| t - self.reserve());
+                let limit = config.budget.time_limit.map(|t| t - self.reserve());
                 let end = share.map_or(limit, |s| Some(limit.map_or(s, |l| s.min(l))));
-                let started = std::time::Instant::now();
+                let (started, steps_before) = (std::time::Instant::now(), self.meter.steps());
                 let deadline = end.map(|t| {
                     std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
                 });
@@ -409,7 +417,7 @@ impl Search<'_> {
                         });
                         if let Values::Sampled(_) = self.values {
                             let per_episode = started.elapsed().as_secs_f64() / record.episodes.max(1) as f64;
-                            let kept = closing_reserve(config.time_limit, per_episode, config.eval_episodes);
+                            let kept = closing_reserve(config.budget.time_limit, per_episode, config.eval_episodes);
                             self.reserve.store(kept.to_bits(), std::sync::atomic::Ordering::Relaxed);
                         }
                         let (value, seconds) = (record.best_so_far, record.record.seconds);
@@ -418,23 +426,30 @@ impl Search<'_> {
                             Some(StopReason::Interrupted)
                         } else {
                             let over_share = share.is_some_and(|t| seconds >= t);
+                            let spent = self.spent().then_some(StopReason::MaxEnvSteps);
                             StopReason::asked(flow)
                                 .or_else(|| {
                                     let closing = seconds + self.reserve();
                                     rules.check(state.history.len(), value, state.since_progress, closing)
                                 })
+                                .or(spent)
                                 .or((cut || over_share).then_some(StopReason::TimeLimit))
                         }
                     }
                     // Cut by an interrupt: the iteration is dropped (a resumed search draws it
-                    // again), the state is the one after the last whole iteration.
-                    Err(Error::Interrupted) => Some(StopReason::Interrupted),
+                    // again, its steps with it), the state is the one after the last whole
+                    // iteration.
+                    Err(Error::Interrupted) => {
+                        self.meter.reset(steps_before);
+                        Some(StopReason::Interrupted)
+                    }
                     Err(e) => return Err(e),
                 };
                 if state.best.is_none() {
                     // Cut before the run's first iteration: nothing to keep.
                     break StopReason::Interrupted;
                 }
+                saver.state.env_steps = self.meter.steps();
                 saver.save_run(stop.is_some(), || SearchState { known: self.known(), ..state.clone() });
                 if let Some(stop) = stop {
                     break stop;
@@ -541,6 +556,7 @@ impl Search<'_> {
                 elite_mean: mean(order[..kept].iter().map(|&i| drawn[i].0)),
                 seconds,
                 successful: progress,
+                env_steps: self.meter.steps(),
             },
             best_so_far: state.best.as_ref().map_or(f64::NAN, |b| b.0),
             concentration: state.laws.concentration(),

@@ -4,6 +4,7 @@
 use serde::Serialize;
 use serde_json::json;
 
+use crate::ce::controller::checkpoint::FinishedSearch;
 use crate::ce::controller::{ControllerConfig, ValueKind};
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::StopReason;
@@ -78,9 +79,43 @@ pub struct ControllerOutcome {
     /// Why the last checkpoint that could not be written failed, if one failed (the search
     /// went on).
     pub checkpoint_error: Option<String>,
+    /// Sampled values: the world's steps learning took, every run and session together
+    /// (selection scores included); 0 on exact values.
+    pub env_steps: u64,
+    /// Sampled values: the world's steps of `evaluation`, counted apart.
+    pub eval_env_steps: u64,
 }
 
 impl ControllerOutcome {
+    /// The outcome of a search's `runs` (those over, then the one cut, if any): the first run
+    /// with the highest value, the search stopped for `ended` where something ended it before
+    /// its runs were over, else for its last run's reason; its evaluation, seconds and steps
+    /// left to the caller.
+    pub(super) fn of_runs(
+        runs: &[&FinishedSearch],
+        ended: Option<StopReason>,
+        kind: ValueKind,
+        (y1, n_actions): (usize, usize),
+    ) -> crate::error::Result<ControllerOutcome> {
+        let best = (0..runs.len()).fold(0, |b, i| if runs[i].value > runs[b].value { i } else { b });
+        let kept = runs[best];
+        Ok(ControllerOutcome {
+            policy: kept.controller.to_hhmm(y1, n_actions)?,
+            value: kept.value,
+            kind,
+            evaluation: None,
+            best_iteration: kept.best_iteration,
+            restart: best,
+            run_values: runs.iter().map(|r| r.value).collect(),
+            history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
+            stop: ended.unwrap_or_else(|| runs.last().expect("at least one run").stop),
+            seconds: 0.0,
+            checkpoint_error: None,
+            env_steps: 0,
+            eval_env_steps: 0,
+        })
+    }
+
     /// The policy file of the best controller (model §6), with its provenance.
     pub fn to_file(&self, world: &dyn Episodes, config: &ControllerConfig) -> PolicyFile {
         let mut map = config.provenance();
@@ -93,6 +128,7 @@ impl ControllerOutcome {
             ("best_iteration", json!(self.best_iteration)),
             ("stop", json!(self.stop.as_str())),
             ("interrupted", json!(self.stop == StopReason::Interrupted)),
+            ("env_steps", json!(self.env_steps)),
             ("version", json!(crate::VERSION)),
         ] {
             map.insert(key.into(), value);

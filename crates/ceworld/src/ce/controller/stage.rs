@@ -98,7 +98,7 @@ pub(super) fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Opti
     if config.model_nodes == 0 || world.tables().gamma >= 1.0 {
         return None;
     }
-    let solved = PointBased::solve(world, Budget::within(config.time_limit), config.seed);
+    let solved = PointBased::solve(world, Budget::within(config.budget.time_limit), config.seed);
     let built = solved.controller(world, config.model_nodes, config.seed);
     let values = ControllerValue::new(world, config.tolerance);
     let mut scratch = Scratch::default();

@@ -1,0 +1,227 @@
+//! What a call to an optimiser may spend, whatever the optimiser: seconds and the world's steps.
+//! Each budget has one meaning, written here once; every optimiser's config holds a [`Budget`]
+//! (flattened: its settings keep their names on the command line, in Python, in checkpoints and
+//! in policy files), and every optimiser counts the world's steps through a [`Metered`] world.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::control::Interrupt;
+use crate::episodes::credit::StepCredit;
+use crate::episodes::{Batch, Episodes, Remote, Shape, Streams};
+use crate::error::{Error, Result};
+use crate::policy::Hhmm;
+use crate::policy::controller::Controller;
+use crate::settings::Setting;
+use crate::world::pomdp::PomdpWorld;
+
+/// The budgets of a call, by the optimiser's config (SB3's `total_timesteps` is
+/// `max_env_steps`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct Budget {
+    /// Stop after this many seconds, every run and every session together, the final
+    /// evaluation included: the iterations stop early by what the closing evaluations would
+    /// take (at most half the limit), and an evaluation that does not fit is cut at the limit,
+    /// with fewer episodes. Checked between iterations, and inside one where the optimiser can
+    /// cut it (the controller search: between controllers on exact values, between groups of
+    /// episodes on sampled ones).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub time_limit: Option<f64>,
+    /// Stop once learning has taken this many of the world's steps (the steps of the episodes
+    /// sampled to learn, every run and every session together; the final evaluation's are
+    /// counted apart). An iteration that would cross it is cut after the batch of episodes that
+    /// reaches it, so the count passes it by one batch at most (the result says so: stop
+    /// `max_env_steps`). The count is the same for any thread or worker count. Refused on a
+    /// world valued exactly (it takes no steps).
+    #[cfg_attr(feature = "cli", arg(long))]
+    pub max_env_steps: Option<u64>,
+}
+
+impl Budget {
+    /// The names of its settings.
+    pub const NAMES: [&'static str; 2] = ["time_limit", "max_env_steps"];
+
+    /// A time limit of `seconds` alone.
+    pub fn seconds(seconds: f64) -> Budget {
+        Budget { time_limit: Some(seconds), max_env_steps: None }
+    }
+
+    /// A budget of `steps` of the world alone.
+    pub fn steps(steps: u64) -> Budget {
+        Budget { time_limit: None, max_env_steps: Some(steps) }
+    }
+
+    /// Sets the budget `s.name` (one of [`Budget::NAMES`]).
+    pub fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "time_limit" => self.time_limit = s.optional_real()?,
+            "max_env_steps" => self.max_env_steps = s.optional_count()?.map(|n| n as u64),
+            other => return Err(Error::Internal(format!("{other:?} is not a budget"))),
+        }
+        Ok(())
+    }
+
+    /// Refuses a budget out of its domain, naming it.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(t) = self.time_limit
+            && !(t > 0.0 && t.is_finite())
+        {
+            return Err(Error::invalid("time_limit", format!("{t} (expected a positive number of seconds)")));
+        }
+        if self.max_env_steps == Some(0) {
+            return Err(Error::invalid("max_env_steps", "0 (expected at least 1 step, or none)"));
+        }
+        Ok(())
+    }
+
+    /// Refuses a budget in steps where the values are exact (no step is taken to learn).
+    pub fn check_sampled(&self, what: &str) -> Result<()> {
+        match self.max_env_steps {
+            Some(n) => Err(Error::invalid(
+                "max_env_steps",
+                format!(
+                    "{n} on {what} (expected none: exact values take no step of the world; use time_limit or max_iterations)"
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// Whether `steps` of the world spend the budget in steps.
+    pub fn spent(&self, steps: u64) -> bool {
+        self.max_env_steps.is_some_and(|m| steps >= m)
+    }
+
+    /// The episodes an iteration runs between two looks at the budget in steps, on a world that
+    /// runs `batch` episodes together: whole batches, about [`CUT_EPISODES`]; `None` without a
+    /// budget in steps (the iteration runs whole).
+    pub fn cut(&self, batch: usize) -> Option<usize> {
+        let batch = batch.max(1);
+        self.max_env_steps.map(|_| batch * (CUT_EPISODES / batch).max(1))
+    }
+}
+
+/// About how many episodes an iteration runs between two looks at a budget in steps: the most
+/// by which the count may pass the budget, on a world that runs its episodes one by one.
+pub const CUT_EPISODES: usize = 256;
+
+/// A world whose steps are counted: every optimiser samples its episodes to learn through one,
+/// so that the count is the engine's (worlds in Python, Gymnasium's and a backend's workers
+/// included) and the same for any thread or worker count. A backend's replay of the elite to
+/// count it is not counted again: its episodes are those already counted.
+pub struct Metered<'a, E: ?Sized> {
+    episodes: &'a E,
+    steps: AtomicU64,
+}
+
+impl<'a, E: Episodes + ?Sized> Metered<'a, E> {
+    /// `episodes`, its count starting at `steps` (the steps of the sessions before).
+    pub fn new(episodes: &'a E, steps: u64) -> Self {
+        Metered { episodes, steps: AtomicU64::new(steps) }
+    }
+
+    /// The steps counted so far.
+    pub fn steps(&self) -> u64 {
+        self.steps.load(Ordering::Relaxed)
+    }
+
+    /// Sets the count back to `steps` (where an iteration cut by an interrupt is dropped: a
+    /// resumed run draws it again).
+    pub fn reset(&self, steps: u64) {
+        self.steps.store(steps, Ordering::Relaxed);
+    }
+
+    /// The world counted.
+    pub fn inner(&self) -> &'a E {
+        self.episodes
+    }
+
+    fn add(&self, steps: u64) -> u64 {
+        self.steps.fetch_add(steps, Ordering::Relaxed);
+        steps
+    }
+}
+
+impl<E: Episodes + ?Sized> Episodes for Metered<'_, E> {
+    fn shape(&self) -> Shape {
+        self.episodes.shape()
+    }
+
+    fn description(&self) -> Value {
+        self.episodes.description()
+    }
+
+    fn run(&self, policy: &Hhmm, streams: Streams, first: usize, batch: Batch<'_>) -> Result<u64> {
+        self.episodes.run(policy, streams, first, batch).map(|s| self.add(s))
+    }
+
+    fn run_controllers(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+    ) -> Result<u64> {
+        self.episodes.run_controllers(controllers, streams, episodes, values).map(|s| self.add(s))
+    }
+
+    fn run_controllers_credited(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> Result<(u64, bool)> {
+        let (steps, credited) =
+            self.episodes.run_controllers_credited(controllers, streams, episodes, values, credit)?;
+        Ok((self.add(steps), credited))
+    }
+
+    fn interrupt(&self) -> Option<&Interrupt> {
+        self.episodes.interrupt()
+    }
+
+    fn slice(&self) -> usize {
+        self.episodes.slice()
+    }
+
+    fn batch(&self) -> usize {
+        self.episodes.batch()
+    }
+
+    fn remote(&self) -> Option<&dyn Remote> {
+        self.episodes.remote()
+    }
+
+    fn tabular(&self) -> Option<&PomdpWorld> {
+        self.episodes.tabular()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::settings::Given;
+
+    #[test]
+    fn budgets_are_set_by_name_and_refused_out_of_their_domain() {
+        let mut b = Budget::default();
+        let set = |b: &mut Budget, name, value| b.set(&Setting { name, value, shown: String::new() });
+        set(&mut b, "max_env_steps", Given::Int(5000)).unwrap();
+        set(&mut b, "time_limit", Given::Real(2.5)).unwrap();
+        assert_eq!(b, Budget { time_limit: Some(2.5), max_env_steps: Some(5000) });
+        assert!(b.validate().is_ok() && !b.spent(4999) && b.spent(5000) && !Budget::default().spent(u64::MAX));
+        for bad in [Budget::steps(0), Budget::seconds(0.0), Budget::seconds(f64::INFINITY), Budget::seconds(f64::NAN)] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+        }
+        let e = Budget::steps(10).check_sampled("exact values").unwrap_err().to_string();
+        assert!(e.contains("max_env_steps") && e.contains("10 on exact values"), "{e}");
+        assert!(Budget::seconds(1.0).check_sampled("exact values").is_ok());
+        assert_eq!((Budget::default().cut(1), Budget::steps(1).cut(1)), (None, Some(CUT_EPISODES)));
+        assert_eq!((Budget::steps(1).cut(100), Budget::steps(1).cut(1000)), (Some(200), Some(1000)));
+    }
+}
