@@ -61,7 +61,9 @@ def plot(args: Sequence[str]) -> int:
     )
     parser.add_argument("files", nargs="+", metavar="FILE", help="a history (.jsonl, .csv) or a policy file (.json)")
     parser.add_argument("--out", required=True, help="the figure (PNG, SVG, PDF: by its extension)")
-    parser.add_argument("--x", choices=["iteration", "seconds", "env_steps"], default="iteration", help="histories: the x axis")
+    parser.add_argument(
+        "--x", choices=["iteration", "seconds", "env_steps"], default="iteration", help="histories: the x axis"
+    )
     parser.add_argument(
         "--what",
         choices=sorted(POLICY_FIGURES),

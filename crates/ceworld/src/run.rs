@@ -92,23 +92,38 @@ impl RunOptions<'_> {
             if let Some(line) = &mut line {
                 line.update(seen.step);
             }
-            let asked = (self.stop)();
-            let called = self.callback.map_or(Flow::Continue, |callback| {
+            let record = || {
                 let mut record = fields(seen.step);
                 record.insert("score".into(), json!(seen.step.score()));
-                record.insert("run".into(), json!(seen.run));
                 let own = record.get("iteration").and_then(Value::as_u64).unwrap_or(0);
-                record.insert("step".into(), json!(seen.earlier as u64 + own));
-                let best_changed = std::mem::take(&mut first) || seen.step.record().successful;
-                let best = || (seen.best)().map(|policy| Some(to_file(policy)));
-                callback(&Iteration { record: &record, best_changed, best: &best })
-            });
-            asked.and(called)
+                (record, seen.run, seen.earlier as u64 + own)
+            };
+            let best_changed = std::mem::take(&mut first) || seen.step.record().successful;
+            self.ask(record, best_changed, &|| (seen.best)().map(|policy| Some(to_file(policy))))
         });
         if let Some(line) = line {
             line.finish();
         }
         outcome
+    }
+
+    /// What stops the run after an iteration: [`RunOptions::stop`], then the callback, called
+    /// with the iteration's `record` by name (made only where there is a callback: its fields,
+    /// its run and its step, which every optimiser's record has) and its best policy.
+    fn ask(
+        &self,
+        record: impl FnOnce() -> (Map<String, Value>, usize, u64),
+        best_changed: bool,
+        best: &dyn Fn() -> Result<Option<PolicyFile>>,
+    ) -> Flow {
+        let asked = (self.stop)();
+        let called = self.callback.map_or(Flow::Continue, |callback| {
+            let (mut record, run, step) = record();
+            record.insert("run".into(), json!(run));
+            record.insert("step".into(), json!(step));
+            callback(&Iteration { record: &record, best_changed, best })
+        });
+        asked.and(called)
     }
 }
 
@@ -193,16 +208,15 @@ pub fn qlearn<W: KnownState>(
         if let Some(line) = &mut line {
             line.update(p.line());
         }
-        let asked = (options.stop)();
-        let called = options.callback.map_or(Flow::Continue, |callback| {
+        let record = || {
             let mut record = fields(p);
             record.insert("iteration".into(), json!(chunk));
-            record.insert("run".into(), json!(0));
-            record.insert("step".into(), json!(chunk));
-            callback(&Iteration { record: &record, best_changed: chunk == 0, best: &|| Ok(None) })
-        });
+            (record, 0, chunk as u64)
+        };
+        // Q-learning has no policy while it learns.
+        let flow = options.ask(record, chunk == 0, &|| Ok(None));
         chunk += 1;
-        asked.and(called)
+        flow
     });
     if let Some(line) = line {
         line.finish();

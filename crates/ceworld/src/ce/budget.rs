@@ -145,6 +145,24 @@ impl<'a, E: Episodes + ?Sized> Metered<'a, E> {
     }
 }
 
+/// What counts a world's steps, whatever the world ([`Metered`]).
+pub trait Meter: Sync {
+    /// The steps counted so far.
+    fn steps(&self) -> u64;
+    /// Sets the count back to `steps` (an iteration cut by an interrupt is dropped).
+    fn reset(&self, steps: u64);
+}
+
+impl<E: Episodes + ?Sized> Meter for Metered<'_, E> {
+    fn steps(&self) -> u64 {
+        Metered::steps(self)
+    }
+
+    fn reset(&self, steps: u64) {
+        Metered::reset(self, steps);
+    }
+}
+
 impl<E: Episodes + ?Sized> Episodes for Metered<'_, E> {
     fn shape(&self) -> Shape {
         self.episodes.shape()

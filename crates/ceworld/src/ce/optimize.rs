@@ -8,15 +8,17 @@ use crate::ce::budget::Metered;
 use crate::ce::checkpoint::{CeRun, FinishedRun, RunState};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
+use crate::ce::iterations::{Ended, Iterations, Watch, iterate_run};
 pub use crate::ce::limits::MAX_RECORD_BYTES;
 use crate::ce::limits::{FB_BLOCK, RunSize, check_iteration_size, check_run_memory};
 use crate::ce::record::{CeResult, IterationRecord};
 use crate::ce::resume::{Checkpointing, Saver};
+use crate::ce::runs::{Runs, over_runs};
 use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, Interrupt, thread_pool};
 use crate::episodes::{Batch, Episodes, Remote, Streams};
 use crate::error::{Error, Result};
-use crate::evaluate::{check_fits, closing_reserve, closing_rewards, final_evaluation};
+use crate::evaluate::{check_fits, closing_rewards, final_evaluation};
 use crate::policy::{Hhmm, Layout};
 use crate::rng::{Purpose, restart_seed, stream_key};
 
@@ -82,78 +84,16 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
     check_size(world, initial.layout(), config, pool.current_num_threads())?;
     // Learning's episodes, their steps counted on from the sessions before.
     let world = &Metered::new(world, saver.state.env_steps);
-    let (mut interrupted, mut stopped, mut out_of_steps) = (None, false, false);
-    while saver.state.restart < config.restarts {
-        let restart = saver.state.restart;
-        let mut run = CeConfig { restarts: 1, seed: restart_seed(config.seed, restart), ..config.clone() };
-        let resume = saver.state.run.take();
-        if let Some(limit) = config.budget.time_limit {
-            // A run's time limit is what was left when it started (its records count from there).
-            let run_before = resume.as_ref().and_then(|r| r.history.last()).map_or(0.0, |r| r.seconds);
-            let spent = if restart == 0 && resume.is_none() { saver.before } else { saver.seconds() - run_before };
-            let left = limit - spent;
-            if left <= 0.0 && restart > 0 && resume.is_none() {
-                break;
-            }
-            // The first run always runs (at least one iteration), however little time is left.
-            run.budget.time_limit = Some(left.max(f64::MIN_POSITIVE));
-        }
-        // A later run starts only while steps are left.
-        if restart > 0 && resume.is_none() && config.budget.spent(world.steps()) {
-            out_of_steps = true;
-            break;
-        }
-        // A run closes with its evaluation, and between restarts with its score too.
-        let closings = if config.restarts > 1 { 2 } else { 1 };
-        let mut result = match optimize_once(world, initial.clone(), &run, closings, resume, &mut observer, &mut saver)
-        {
-            // Cut before its first iteration: the runs that finished are what there is.
-            Err(Error::Interrupted) if !saver.state.finished.is_empty() && !aborted(world) => {
-                stopped = true;
-                break;
-            }
-            result => result?,
-        };
-        result.restart = restart;
-        if config.restarts == 1 {
-            result.seconds = saver.seconds();
-            result.checkpoint_error = saver.failed.take();
-            result.env_steps = world.steps();
-            return Ok(result);
-        }
-        let policy = &result.policy;
-        let left = config.budget.time_limit.map(|t| t - saver.seconds());
-        let (scored, cut) =
-            pool.install(|| closing_rewards(world, policy, config.eval_episodes, config.seed, Purpose::Select, left))?;
-        if cut {
-            // Interrupted while scored: the checkpoint holds the run, which a resume closes again.
-            result.stop = StopReason::Interrupted;
-        }
-        let score = crate::evaluate::mean(scored.iter().copied());
-        if result.stop.halted() {
-            // The checkpoint keeps this run's state, to be continued.
-            interrupted = Some(FinishedRun { score, result });
-            break;
-        }
-        saver.state.finished.push(FinishedRun { score, result });
-        saver.state.restart += 1;
-        saver.state.env_steps = world.steps();
-        saver.save(true);
-    }
-    let mut runs: Vec<&FinishedRun> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
-    // The first with the highest score (a run cut before its score's first episode has NaN).
-    let best = runs
-        .iter()
-        .enumerate()
-        .fold(0, |b, (i, r)| if r.score > runs[b].score || runs[b].score.is_nan() { i } else { b });
-    let scores = runs.iter().map(|r| r.score).collect();
-    let mut result = runs.swap_remove(best).result.clone();
-    // Stopped by the caller: the search is, whichever run is returned.
-    if let Some(halted) = stopped.then_some(StopReason::Interrupted).or(interrupted.as_ref().map(|r| r.result.stop)) {
-        result.stop = halted;
-    } else if out_of_steps {
-        // The budget in steps ended the search, whichever run is returned.
-        result.stop = StopReason::MaxEnvSteps;
+    let mut runs = CeRuns { world, initial: &initial, config, pool: &pool, observer: &mut observer };
+    let chosen = over_runs(&mut runs, config.restarts, &mut saver)?;
+    let (runs, best) = chosen.all(&saver.state.finished, |r| r.score);
+    let scores = if config.restarts > 1 { runs.iter().map(|r| r.score).collect() } else { Vec::new() };
+    let mut result = runs[best].result.clone();
+    // Stopped by the caller, or by a budget before a later run: the search is, whichever run
+    // is returned.
+    let halted = chosen.open.as_ref().map(|r| r.result.stop).filter(|s| s.halted());
+    if let Some(stop) = chosen.ended.or(halted) {
+        result.stop = stop;
     }
     result.seconds = saver.seconds();
     result.restart_scores = scores;
@@ -162,9 +102,67 @@ pub fn optimize_observed<E: Episodes + ?Sized>(
     Ok(result)
 }
 
-/// Whether the world's interrupt asked twice (nothing goes on).
-fn aborted<E: Episodes + ?Sized>(world: &E) -> bool {
-    world.interrupt().is_some_and(Interrupt::aborted)
+/// The runs of episode CE, as the loop over runs drives them.
+struct CeRuns<'a, 'w, E: ?Sized> {
+    world: &'a Metered<'w, E>,
+    initial: &'a Hhmm,
+    config: &'a CeConfig,
+    pool: &'a rayon::ThreadPool,
+    observer: &'a mut dyn FnMut(&Observed<'_, IterationRecord>) -> Flow,
+}
+
+impl<E: Episodes + ?Sized> Runs for CeRuns<'_, '_, E> {
+    type Kind = CeRun;
+
+    fn run(&mut self, restart: usize, resume: Option<RunState>, saver: &mut Saver<'_, CeRun>) -> Result<FinishedRun> {
+        let config = self.config;
+        let mut run = CeConfig { restarts: 1, seed: restart_seed(config.seed, restart), ..config.clone() };
+        if let Some(limit) = config.budget.time_limit {
+            // A run's time limit is what was left when it started (its records count from there).
+            let run_before = resume.as_ref().and_then(|r| r.history.last()).map_or(0.0, |r| r.seconds);
+            let spent = if restart == 0 && resume.is_none() { saver.before } else { saver.seconds() - run_before };
+            // The first run always runs (at least one iteration), however little time is left.
+            run.budget.time_limit = Some((limit - spent).max(f64::MIN_POSITIVE));
+        }
+        // A run closes with its evaluation, and between restarts with its score too.
+        let closings = if config.restarts > 1 { 2 } else { 1 };
+        let initial = self.initial.clone();
+        let mut result = optimize_once(self.world, initial, &run, closings, resume, self.observer, saver)?;
+        result.restart = restart;
+        if config.restarts == 1 {
+            return Ok(FinishedRun { score: f64::NAN, result });
+        }
+        let (policy, left) = (&result.policy, config.budget.time_limit.map(|t| t - saver.seconds()));
+        let (episodes, seed) = (config.eval_episodes, config.seed);
+        let (scored, cut) =
+            self.pool.install(|| closing_rewards(self.world, policy, episodes, seed, Purpose::Select, left))?;
+        if cut {
+            // Interrupted while scored: the checkpoint holds the run, which a resume closes again.
+            result.stop = StopReason::Interrupted;
+        }
+        Ok(FinishedRun { score: crate::evaluate::mean(scored.iter().copied()), result })
+    }
+
+    fn stop(run: &FinishedRun) -> StopReason {
+        run.result.stop
+    }
+
+    fn spent(&self, saver: &Saver<'_, CeRun>) -> Option<StopReason> {
+        let budget = &self.config.budget;
+        if budget.time_limit.is_some_and(|t| saver.seconds() >= t) {
+            Some(StopReason::TimeLimit)
+        } else {
+            budget.spent(self.world.steps()).then_some(StopReason::MaxEnvSteps)
+        }
+    }
+
+    fn aborted(&self) -> bool {
+        self.world.interrupt().is_some_and(Interrupt::aborted)
+    }
+
+    fn steps(&self) -> u64 {
+        self.world.steps()
+    }
 }
 
 /// Refuses, before anything is allocated, a run whose iteration or memory would not fit.
@@ -213,90 +211,17 @@ fn optimize_once<E: Episodes + ?Sized>(
         crate::ce::posterior::check_supported(initial.layout())?;
     }
     let pool = thread_pool(config.threads)?;
-    let layout = initial.layout().clone();
-    let stride = world.shape().horizon * layout.record_width();
-    let (n, elite_count) = (config.samples, config.elite_count());
     let (remote, started) = (remote_of(world, config)?, Instant::now());
-    let RunState { mut policy, mut history, mut best, mut unsuccessful } =
-        resume.unwrap_or(RunState { policy: initial, history: Vec::new(), best: None, unsuccessful: 0 });
+    let run = resume.unwrap_or(RunState { policy: initial, history: Vec::new(), best: None, unsuccessful: 0 });
     // Seconds of this run in earlier sessions.
-    let before = history.last().map_or(0.0, |r| r.seconds);
-    // A resumed run whose last iteration meets a stopping rule (the same as before with the same
-    // settings; new stopping rules may let it go on) ends at once.
-    let mut stop = history.last().and_then(|r| {
-        let spent = config.budget.spent(world.steps()).then_some(StopReason::MaxEnvSteps);
-        stopping_rule(config, r, unsuccessful, 0.0).or(spent)
-    });
-    // Episodes sampled elsewhere keep their records there.
-    let recorded = stop.is_none() && remote.is_none();
-    let mut buffers = Buffers {
-        records: vec![0u16; if recorded { n * stride } else { 0 }],
-        rewards: vec![0.0f64; n],
-        lengths: vec![0u32; if recorded { n } else { 0 }],
-        keys: vec![0; n],
-        order: (0..n).collect(),
-        chunk: elite_count.div_ceil(pool.current_num_threads()).max(1),
-    };
+    let before = run.history.last().map_or(0.0, |r| r.seconds);
     let earlier = saver.state.finished.iter().map(|r| r.result.history.len()).sum();
-    while stop.is_none() {
-        let iteration = history.len();
-        let (iteration_started, steps_before) = (Instant::now(), world.steps());
-        let counted = buffers.iterate(world, &policy, config, iteration, remote, &pool);
-        let (sampled_n, threshold, counts) = match counted {
-            Ok(counted) => counted,
-            Err(Error::Interrupted) => {
-                // Cut by an interrupt: the iteration is dropped (a resumed run draws it again),
-                // the state is the one after the last whole iteration.
-                stop = Some(StopReason::Interrupted);
-                world.reset(steps_before);
-                if best.is_some() {
-                    saver.save_run(true, || snapshot(&policy, &history, best.as_ref(), unsuccessful));
-                }
-                break;
-            }
-            Err(e) => return Err(e),
-        };
-        let (rewards, elite) = (&buffers.rewards[..sampled_n], &buffers.order[..config.elite_of(sampled_n)]);
-        let mean = crate::evaluate::mean(rewards.iter().copied());
-        let successful = best.as_ref().is_none_or(|(m, _, _)| mean > *m);
-        if successful {
-            best = Some((mean, iteration, policy.clone()));
-            unsuccessful = 0;
-        } else {
-            unsuccessful += 1;
-        }
-        pool.install(|| match &counts {
-            Counts::Integer(c) => policy.refit(c, config.smoothing, config.decision_smoothing),
-            Counts::Real(c) => policy.refit(c, config.smoothing, config.decision_smoothing),
-        });
-        let record = IterationRecord {
-            iteration,
-            mean,
-            best: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            elite_threshold: rewards[threshold],
-            elite_mean: crate::evaluate::mean(elite.iter().map(|&k| rewards[k])),
-            seconds: before + started.elapsed().as_secs_f64(),
-            successful,
-            env_steps: world.steps(),
-        };
-        history.push(record.clone());
-        let best_policy = || Ok(best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"));
-        let flow = observer(&Observed { step: &record, best: &best_policy, run: saver.state.restart, earlier });
-        let interrupted = world.interrupt().is_some_and(Interrupt::stopping).then_some(StopReason::Interrupted);
-        // What the closing evaluations keep of the time limit, as this iteration's episodes ran.
-        let per_episode = iteration_started.elapsed().as_secs_f64() / sampled_n as f64;
-        let reserve = closing_reserve(config.budget.time_limit, per_episode, closings * config.eval_episodes);
-        let spent = config.budget.spent(record.env_steps).then_some(StopReason::MaxEnvSteps);
-        stop = interrupted
-            .or(StopReason::asked(flow))
-            .or_else(|| stopping_rule(config, &record, unsuccessful, reserve))
-            .or(spent);
-        saver.state.env_steps = record.env_steps;
-        saver.save_run(stop.is_some(), || snapshot(&policy, &history, best.as_ref(), unsuccessful));
-    }
-    let stop = stop.expect("the loop ends with a reason");
-    // A run cut before its first iteration has nothing to keep.
-    let (_, best_iteration, best_policy) = best.ok_or(Error::Interrupted)?;
+    let (budget, interrupt) = (&config.budget, world.interrupt());
+    let watch = Watch { run: saver.state.restart, earlier, budget, meter: world, interrupt, reserve: 0.0 };
+    let mut it = CeIterations { world, config, pool: &pool, remote, buffers: None, before, started, closings, ran: 0 };
+    let Ended { run, stop, .. } = iterate_run(&mut it, run, saver, observer, &watch)?;
+    let RunState { policy, history, best, .. } = run;
+    let (_, best_iteration, best_policy) = best.expect("a best policy after an iteration");
     // Inside the time limit: the closing evaluations share what is left of it.
     let left = config.budget.time_limit.map(|t| (t - before - started.elapsed().as_secs_f64()) / closings as f64);
     let (episodes, interrupted) = (config.eval_episodes, stop == StopReason::Interrupted);
@@ -320,6 +245,85 @@ fn optimize_once<E: Episodes + ?Sized>(
     })
 }
 
+/// The iterations of one run of episode CE (model §3), as the loop over iterations drives them.
+struct CeIterations<'a, 'w, E: ?Sized> {
+    world: &'a Metered<'w, E>,
+    config: &'a CeConfig,
+    pool: &'a rayon::ThreadPool,
+    remote: Option<&'a dyn Remote>,
+    /// Made at the first iteration (a resumed run that ends at once needs none).
+    buffers: Option<Buffers>,
+    /// The run's seconds in earlier sessions, and when this session's began.
+    before: f64,
+    started: Instant,
+    /// Closing evaluations of `eval_episodes` each: the final one, and between restarts the
+    /// run's score.
+    closings: usize,
+    /// The episodes the last iteration ran (fewer than N where a budget cut it).
+    ran: usize,
+}
+
+impl<E: Episodes + ?Sized> Iterations for CeIterations<'_, '_, E> {
+    type Kind = CeRun;
+    type Record = IterationRecord;
+
+    fn started(run: &RunState) -> bool {
+        run.best.is_some()
+    }
+
+    fn resumed(&self, run: &RunState) -> Option<StopReason> {
+        run.history.last().and_then(|r| stopping_rule(self.config, r, run.unsuccessful, 0.0))
+    }
+
+    fn iterate(&mut self, run: &mut RunState, _: f64) -> Result<IterationRecord> {
+        let config = self.config;
+        let iteration = run.history.len();
+        let buffers =
+            self.buffers.get_or_insert_with(|| Buffers::new(self.world, &run.policy, config, self.remote, self.pool));
+        let (sampled_n, threshold, counts) =
+            buffers.iterate(self.world, &run.policy, config, iteration, self.remote, self.pool)?;
+        self.ran = sampled_n;
+        let (rewards, elite) = (&buffers.rewards[..sampled_n], &buffers.order[..config.elite_of(sampled_n)]);
+        let mean = crate::evaluate::mean(rewards.iter().copied());
+        let successful = run.best.as_ref().is_none_or(|(m, _, _)| mean > *m);
+        if successful {
+            run.best = Some((mean, iteration, run.policy.clone()));
+            run.unsuccessful = 0;
+        } else {
+            run.unsuccessful += 1;
+        }
+        let policy = &mut run.policy;
+        self.pool.install(|| match &counts {
+            Counts::Integer(c) => policy.refit(c, config.smoothing, config.decision_smoothing),
+            Counts::Real(c) => policy.refit(c, config.smoothing, config.decision_smoothing),
+        });
+        let record = IterationRecord {
+            iteration,
+            mean,
+            best: rewards.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            elite_threshold: rewards[threshold],
+            elite_mean: crate::evaluate::mean(elite.iter().map(|&k| rewards[k])),
+            seconds: self.before + self.started.elapsed().as_secs_f64(),
+            successful,
+            env_steps: self.world.steps(),
+        };
+        run.history.push(record.clone());
+        Ok(record)
+    }
+
+    fn best(&self, run: &RunState) -> Result<Hhmm> {
+        Ok(run.best.as_ref().map(|b| b.2.clone()).expect("a best policy after an iteration"))
+    }
+
+    fn stop(&self, run: &RunState, record: &IterationRecord, reserve: f64) -> Option<StopReason> {
+        stopping_rule(self.config, record, run.unsuccessful, reserve)
+    }
+
+    fn closing(&self, _: &IterationRecord) -> Option<(usize, usize)> {
+        Some((self.ran, self.closings * self.config.eval_episodes))
+    }
+}
+
 /// An iteration's episodes, their order and the elite's counting, reused from one iteration to
 /// the next.
 struct Buffers {
@@ -333,6 +337,28 @@ struct Buffers {
 }
 
 impl Buffers {
+    /// The buffers of `config`'s iterations of `policy` on `world` (records kept here where the
+    /// episodes are sampled here).
+    fn new<E: Episodes + ?Sized>(
+        world: &E,
+        policy: &Hhmm,
+        config: &CeConfig,
+        remote: Option<&dyn Remote>,
+        pool: &rayon::ThreadPool,
+    ) -> Buffers {
+        let n = config.samples;
+        let stride = world.shape().horizon * policy.layout().record_width();
+        let recorded = remote.is_none();
+        Buffers {
+            records: vec![0u16; if recorded { n * stride } else { 0 }],
+            rewards: vec![0.0f64; n],
+            lengths: vec![0u32; if recorded { n } else { 0 }],
+            keys: vec![0; n],
+            order: (0..n).collect(),
+            chunk: config.elite_count().div_ceil(pool.current_num_threads()).max(1),
+        }
+    }
+
     /// Samples iteration `iteration` of `policy` (cut by a budget in steps: its elite is of the
     /// episodes run), puts its elite first in `order` and counts it: the episodes run, the
     /// index of the elite's worst, the counts.
@@ -432,16 +458,6 @@ fn select_elite(
         order.select_nth_unstable_by(elite_count - 1, better);
     }
     order[..elite_count].iter().copied().max_by(better).expect("the elite is never empty")
-}
-
-/// A run's state, to be saved.
-fn snapshot(
-    policy: &Hhmm,
-    history: &[IterationRecord],
-    best: Option<&(f64, usize, Hhmm)>,
-    unsuccessful: usize,
-) -> RunState {
-    RunState { policy: policy.clone(), history: history.to_vec(), best: best.cloned(), unsuccessful }
 }
 
 /// The stopping rule that holds after iteration `record` with `unsuccessful` unsuccessful

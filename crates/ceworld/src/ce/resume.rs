@@ -300,6 +300,20 @@ fn content_digest(doc: &Value) -> String {
     crate::world::pomdp::sha256_hex(&serde_json::to_vec(doc).unwrap_or_default())
 }
 
+/// The seconds an optimisation has spent, every session together.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Clock {
+    before: f64,
+    started: Instant,
+}
+
+impl Clock {
+    /// Seconds spent, every session together.
+    pub fn seconds(&self) -> f64 {
+        self.before + self.started.elapsed().as_secs_f64()
+    }
+}
+
 /// Keeps the checkpoint of a run and saves it when due.
 pub(crate) struct Saver<'a, K: Resumable> {
     checkpointing: Option<&'a Checkpointing>,
@@ -357,7 +371,12 @@ impl<'a, K: Resumable> Saver<'a, K> {
 
     /// Seconds spent, every session together.
     pub fn seconds(&self) -> f64 {
-        self.before + self.started.elapsed().as_secs_f64()
+        self.clock().seconds()
+    }
+
+    /// The clock of [`Saver::seconds`], apart from the saver.
+    pub fn clock(&self) -> Clock {
+        Clock { before: self.before, started: self.started }
     }
 
     /// Whether a save is due (always when `force`).

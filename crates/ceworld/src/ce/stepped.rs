@@ -1,8 +1,9 @@
-//! An optimiser given by its iteration step alone ([`Stepped`]): the loop around it, its stop
-//! rules, its history, its checkpoints (resumed bit for bit), its thread pool and the
-//! evaluation of its result are this module's, the same for every such optimiser. What it
-//! samples, it samples through [`Episodes`], so that it runs on any world, here or on a backend
-//! elsewhere.
+//! An optimiser given by its iteration step alone ([`Stepped`]): the loops around it (over its
+//! runs, [`crate::ce::runs`], and its iterations, [`crate::ce::iterations`]), its stop rules, its
+//! history, its checkpoints (resumed bit for bit), its budgets, its thread pool and the
+//! evaluation of its result come from the spine, the same for every such optimiser (this module
+//! adapts a step to the two loops). What it samples, it samples through [`Episodes`], so that it
+//! runs on any world, here or on a backend elsewhere.
 
 use std::marker::PhantomData;
 
@@ -11,13 +12,15 @@ use serde::{Deserialize, Serialize};
 use serde_json::json;
 
 use crate::ce::budget::{Budget, Metered};
+use crate::ce::iterations::{Ended, Iterations, Watch, iterate_run};
 use crate::ce::record::IterationRecord;
-use crate::ce::resume::{Checkpointing, Resumable, Saver};
+use crate::ce::resume::{Checkpointing, Clock, Resumable, Saver};
+use crate::ce::runs::{Runs, over_runs};
 use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, thread_pool};
 use crate::episodes::Episodes;
-use crate::error::{Error, Result};
-use crate::evaluate::{Evaluation, closing_reserve, final_evaluation};
+use crate::error::Result;
+use crate::evaluate::{Evaluation, final_evaluation};
 use crate::policy::Hhmm;
 use crate::policy::file::PolicyFile;
 use crate::settings::Settings;
@@ -85,6 +88,14 @@ pub struct SteppedRun<O: Stepped> {
     pub history: Vec<IterationRecord>,
     /// Iterations since the last successful one.
     pub since: usize,
+    /// Why it stopped, once it has (the run's checkpoints in progress keep a placeholder).
+    #[serde(default = "interrupted")]
+    pub stop: StopReason,
+}
+
+/// The stop reason a checkpoint of version 1 reads for a run in progress.
+fn interrupted() -> StopReason {
+    StopReason::Interrupted
 }
 
 /// The checkpoints of the stepped optimiser `O`.
@@ -184,68 +195,23 @@ pub fn run_stepped_observed<O: Stepped>(
     let pool = thread_pool(rules.threads)?;
     let mut saver = Saver::<SteppedKind<O>>::new(world, config, checkpointing, None)?;
     // Learning's episodes, their steps counted on from the sessions before.
-    let (metered, evaluated) = (Metered::new(world, saver.state.env_steps), world);
-    let world: &dyn Episodes = &metered;
-    let spent = || rules.budget.spent(metered.steps());
-    let mut run = match saver.state.run.take() {
-        Some(run) => run,
-        None => SteppedRun { state: pool.install(|| O::start(world, config))?, history: Vec::new(), since: 0 },
-    };
-    // What the final evaluation keeps of the time limit, as the last iteration's episodes ran.
-    let mut reserve = 0.0;
-    let stop = loop {
-        let iteration = run.history.len();
-        let rule = if run.since >= rules.patience && iteration > 0 {
-            Some(StopReason::Patience)
-        } else if rules.max_iterations.is_some_and(|m| iteration >= m) {
-            Some(StopReason::MaxIterations)
-        } else if rules.budget.time_limit.is_some_and(|limit| saver.seconds() + reserve >= limit) {
-            Some(StopReason::TimeLimit)
-        } else {
-            spent().then_some(StopReason::MaxEnvSteps)
-        };
-        // The stop rules are read afresh on resume (they may differ between sessions).
-        if let Some(stop) = rule {
-            break stop;
-        }
-        let mut next = run.state.clone();
-        let (started, steps_before) = (std::time::Instant::now(), metered.steps());
-        let mut record = match pool.install(|| next.step(world, config, iteration, &spent)) {
-            Ok(record) => record,
-            // An iteration a stop cut is dropped, its steps with it: the state is the one before it.
-            Err(Error::Interrupted) if world.interrupt().is_some_and(crate::control::Interrupt::stopping) => {
-                metered.reset(steps_before);
-                break StopReason::Interrupted;
-            }
-            Err(e) => return Err(e),
-        };
-        record.iteration = iteration;
-        let per_episode = started.elapsed().as_secs_f64() / rules.episodes.max(1) as f64;
-        reserve = closing_reserve(rules.budget.time_limit, per_episode, rules.eval_episodes);
-        record.seconds = saver.seconds();
-        record.env_steps = metered.steps();
-        saver.state.env_steps = record.env_steps;
-        run.state = next;
-        run.since = if record.successful { 0 } else { run.since + 1 };
-        run.history.push(record.clone());
-        saver.save_run(false, || run.clone());
-        let best = || run.state.policy(world);
-        if let Some(stop) = StopReason::asked(observe(&Observed { step: &record, best: &best, run: 0, earlier: 0 })) {
-            break stop;
-        }
-    };
-    saver.save_run(true, || run.clone());
+    let metered = Metered::new(world, saver.state.env_steps);
+    let mut runs = SteppedRuns::<O, _> { world: &metered, config, rules, pool: &pool, observe: &mut observe };
+    let chosen = over_runs(&mut runs, 1, &mut saver)?;
+    let stop = chosen.stop(&saver.state.finished, |r| r.stop);
+    let (runs, best) = chosen.all(&saver.state.finished, |_| 0.0);
+    let run = runs[best];
     let policy = run.state.policy(world)?;
     // Inside the time limit: what is left of it (an interrupt does not cut it: the run's
     // iterations are over).
     let left = rules.budget.time_limit.map(|t| t - saver.seconds());
     let (episodes, seed) = (rules.eval_episodes, rules.seed);
     // The final evaluation's steps are counted apart.
-    let evaluated = Metered::new(evaluated, 0);
+    let evaluated = Metered::new(world, 0);
     let (evaluation, _) = pool.install(|| final_evaluation(&evaluated, &policy, episodes, seed, false, left))?;
     Ok(SteppedOutcome {
         policy,
-        history: run.history,
+        history: run.history.clone(),
         stop,
         evaluation,
         seconds: saver.seconds(),
@@ -253,4 +219,121 @@ pub fn run_stepped_observed<O: Stepped>(
         env_steps: metered.steps(),
         eval_env_steps: evaluated.steps(),
     })
+}
+
+/// The run of a stepped optimiser, as the loop over runs drives it.
+struct SteppedRuns<'a, 'w, O: Stepped, F> {
+    world: &'a Metered<'w, dyn Episodes + 'w>,
+    config: &'a O::Config,
+    rules: Rules,
+    pool: &'a rayon::ThreadPool,
+    observe: &'a mut F,
+}
+
+impl<O: Stepped, F: FnMut(&Observed<'_, IterationRecord>) -> Flow> Runs for SteppedRuns<'_, '_, O, F> {
+    type Kind = SteppedKind<O>;
+
+    fn run(
+        &mut self,
+        restart: usize,
+        resume: Option<SteppedRun<O>>,
+        saver: &mut Saver<'_, SteppedKind<O>>,
+    ) -> Result<SteppedRun<O>> {
+        let run = if let Some(run) = resume {
+            run
+        } else {
+            let state = self.pool.install(|| O::start(self.world, self.config))?;
+            SteppedRun { state, history: Vec::new(), since: 0, stop: StopReason::Interrupted }
+        };
+        let (rules, world) = (&self.rules, self.world);
+        let watch = Watch {
+            run: restart,
+            earlier: 0,
+            budget: &rules.budget,
+            meter: world,
+            interrupt: world.interrupt(),
+            reserve: 0.0,
+        };
+        let mut it =
+            SteppedIterations::<O> { world, config: self.config, rules, pool: self.pool, clock: saver.clock() };
+        let Ended { mut run, stop, .. } = iterate_run(&mut it, run, saver, self.observe, &watch)?;
+        run.stop = stop;
+        Ok(run)
+    }
+
+    fn stop(run: &SteppedRun<O>) -> StopReason {
+        run.stop
+    }
+
+    fn spent(&self, _: &Saver<'_, SteppedKind<O>>) -> Option<StopReason> {
+        None
+    }
+
+    fn aborted(&self) -> bool {
+        self.world.interrupt().is_some_and(crate::control::Interrupt::aborted)
+    }
+
+    fn steps(&self) -> u64 {
+        self.world.steps()
+    }
+}
+
+/// The iterations of a stepped optimiser, as the loop over iterations drives them.
+struct SteppedIterations<'a, 'w, O: Stepped> {
+    world: &'a Metered<'w, dyn Episodes + 'w>,
+    config: &'a O::Config,
+    rules: &'a Rules,
+    pool: &'a rayon::ThreadPool,
+    clock: Clock,
+}
+
+impl<O: Stepped> Iterations for SteppedIterations<'_, '_, O> {
+    type Kind = SteppedKind<O>;
+    type Record = IterationRecord;
+
+    fn started(_: &SteppedRun<O>) -> bool {
+        // A stepped optimiser's state is whole from its start.
+        true
+    }
+
+    fn resumed(&self, run: &SteppedRun<O>) -> Option<StopReason> {
+        let last = run.history.last()?;
+        self.stop(run, last, 0.0)
+    }
+
+    fn iterate(&mut self, run: &mut SteppedRun<O>, _: f64) -> Result<IterationRecord> {
+        let iteration = run.history.len();
+        // The iteration runs on a copy: one cut is dropped, the state is the one before it.
+        let mut next = run.state.clone();
+        let budget = self.rules.budget;
+        let spent = || budget.spent(self.world.steps());
+        let world: &dyn Episodes = self.world;
+        let mut record = self.pool.install(|| next.step(world, self.config, iteration, &spent))?;
+        record.iteration = iteration;
+        record.seconds = self.clock.seconds();
+        record.env_steps = self.world.steps();
+        run.state = next;
+        run.since = if record.successful { 0 } else { run.since + 1 };
+        run.history.push(record.clone());
+        Ok(record)
+    }
+
+    fn best(&self, run: &SteppedRun<O>) -> Result<Hhmm> {
+        run.state.policy(self.world)
+    }
+
+    fn stop(&self, run: &SteppedRun<O>, record: &IterationRecord, reserve: f64) -> Option<StopReason> {
+        let (rules, iterations) = (self.rules, run.history.len());
+        if run.since >= rules.patience {
+            Some(StopReason::Patience)
+        } else if rules.max_iterations.is_some_and(|m| iterations >= m) {
+            Some(StopReason::MaxIterations)
+        } else {
+            rules.budget.time_limit.is_some_and(|t| record.seconds + reserve >= t).then_some(StopReason::TimeLimit)
+        }
+    }
+
+    fn closing(&self, _: &IterationRecord) -> Option<(usize, usize)> {
+        Some((self.rules.episodes, self.rules.eval_episodes))
+    }
 }

@@ -133,7 +133,7 @@ pub struct ControllerConfig {
     pub target: Option<f64>,
     /// The budgets in seconds and in the world's steps ([`Budget`]; a budget in steps on
     /// sampled values only). The runs share them; with `memory="alternate"`, each run of the
-    /// first round but the last ends at its share of the time limit ([`super::memory::ALTERNATE_SHARES`]).
+    /// first round but the last ends at its share of the time limit (`memory::ALTERNATE_SHARES`).
     #[serde(flatten)]
     #[cfg_attr(feature = "cli", command(flatten))]
     pub budget: Budget,

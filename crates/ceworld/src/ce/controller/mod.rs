@@ -28,8 +28,7 @@ use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, Interrupt, thread_pool};
 use crate::episodes::credit::StepCredit;
 use crate::episodes::{Episodes, Remote, Streams};
-use crate::error::{Error, Result};
-use crate::evaluate::closing_reserve;
+use crate::error::Result;
 use crate::evaluate::mean;
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
@@ -45,7 +44,9 @@ use selection::{Scores, kept_values};
 use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
 
-use crate::ce::resume::{Checkpointing, Saver};
+use crate::ce::iterations::{Ended, Iterations, Watch, iterate_run};
+use crate::ce::resume::{Checkpointing, Clock, Saver};
+use crate::ce::runs::{Runs, over_runs};
 use checkpoint::{ControllerSearch, FinishedSearch, Known, SearchSettings, SearchState};
 use stage::model_start;
 
@@ -127,58 +128,11 @@ pub fn optimize_controller_observed(
     let (scores, bar) = kept_values(&saver.state)?;
     let meter = &metered;
     let search = Search { config, values, meter, seen, scores, bar, episodes, reserve, start, y1, n_actions, pool };
-    // What ended the search before its runs were over, if anything.
-    let (mut interrupted, mut ended) = (None, None);
-    while saver.state.restart < config.runs() {
-        let restart = saver.state.restart;
-        let resume = saver.state.run.take();
-        // A later run starts only while time is left (the first always runs).
-        if restart > 0
-            && resume.is_none()
-            && config.budget.time_limit.is_some_and(|t| saver.seconds() + search.reserve() >= t)
-        {
-            ended = Some(StopReason::TimeLimit);
-            break;
-        }
-        if restart > 0 && resume.is_none() && config.budget.spent(metered.steps()) {
-            ended = Some(StopReason::MaxEnvSteps);
-            break;
-        }
-        // The later runs skip the memoryless stage: an earlier run found its policy.
-        let stage = saver.state.finished.iter().find_map(|r| r.memoryless.clone());
-        let seed = restart_seed(config.seed, restart);
-        let run = match search.run(seed, restart, resume, stage, &mut saver, &mut observe) {
-            // Cut before its first iteration: the runs that finished are what there is.
-            Err(Error::Interrupted)
-                if !saver.state.finished.is_empty() && !search.interrupt().is_some_and(Interrupt::aborted) =>
-            {
-                ended = Some(StopReason::Interrupted);
-                break;
-            }
-            run => run?,
-        };
-        if run.stop.halted() {
-            // The checkpoint keeps this run's state, to be continued.
-            interrupted = Some(run);
-            break;
-        }
-        let stop = run.stop;
-        // The last run over holds the scores (for a resume before the next run's first save).
-        if let Some(last) = saver.state.finished.last_mut() {
-            last.known = Known::default();
-        }
-        saver.state.finished.push(run);
-        saver.state.restart += 1;
-        saver.state.env_steps = metered.steps();
-        saver.save(true);
-        // Runs until the time limit end with the target too. Past the time limit no run starts
-        // (checked above): a run stopped by its share of the limit is followed by the next.
-        if config.restarts == 0 && stop == StopReason::Target {
-            break;
-        }
-    }
-    let runs: Vec<&FinishedSearch> = saver.state.finished.iter().chain(interrupted.as_ref()).collect();
-    let mut outcome = ControllerOutcome::of_runs(&runs, ended, world.kind(), (y1, n_actions))?;
+    let mut runs = SearchRuns { search: &search, observe: &mut observe };
+    let chosen = over_runs(&mut runs, config.runs(), &mut saver)?;
+    let (runs, best) = chosen.all(&saver.state.finished, |r| r.value);
+    let stop = chosen.stop(&saver.state.finished, |r| r.stop);
+    let mut outcome = ControllerOutcome::of_runs(&runs, best, stop, world.kind(), (y1, n_actions))?;
     outcome.env_steps = metered.steps();
     if let Valued::Sampled(w) = world {
         // The final evaluation's steps are counted apart.
@@ -189,6 +143,129 @@ pub fn optimize_controller_observed(
     outcome.seconds = saver.seconds();
     outcome.checkpoint_error = saver.failed.take();
     Ok(outcome)
+}
+
+/// The iterations of one run of a controller search, as the loop over iterations drives them.
+struct SearchIterations<'a, 's> {
+    search: &'a Search<'s>,
+    seed: u64,
+    restart: usize,
+    /// Where the run ends by its share of the time limit (alternating memories), in seconds.
+    share: Option<f64>,
+    rules: crate::ce::stopping::StopRules,
+    clock: Clock,
+}
+
+impl Iterations for SearchIterations<'_, '_> {
+    type Kind = ControllerSearch;
+    type Record = ControllerIteration;
+
+    fn started(run: &SearchState) -> bool {
+        run.best.is_some()
+    }
+
+    fn resumed(&self, run: &SearchState) -> Option<StopReason> {
+        let r = run.history.last()?;
+        self.rules.check(run.history.len(), r.best_so_far, run.since_progress, r.record.seconds)
+    }
+
+    fn iterate(&mut self, state: &mut SearchState, reserve: f64) -> Result<ControllerIteration> {
+        let search = self.search;
+        let iteration = state.history.len();
+        // The time limit as an instant, so that the exact values can check it as they go.
+        let limit = search.config.budget.time_limit.map(|t| t - reserve);
+        let end = self.share.map_or(limit, |s| Some(limit.map_or(s, |l| s.min(l))));
+        let deadline = end.map(|t| {
+            std::time::Instant::now() + std::time::Duration::from_secs_f64((t - self.clock.seconds()).max(0.0))
+        });
+        let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
+        let drawn = search.value(&state.laws, self.seed, iteration, &over_time)?;
+        search.stage_bar(state)?;
+        let record = search.learn(state, &drawn, self.restart, self.clock.seconds());
+        state.history.push(record.clone());
+        Ok(record)
+    }
+
+    fn best(&self, state: &SearchState) -> Result<crate::policy::Hhmm> {
+        self.search.best_policy(state)
+    }
+
+    fn stop(&self, state: &SearchState, record: &ControllerIteration, reserve: f64) -> Option<StopReason> {
+        let seconds = record.record.seconds;
+        let over_share = self.share.is_some_and(|t| seconds >= t);
+        // An iteration the time limit cut valued fewer controllers than drawn.
+        let cut = record.evaluated < self.search.config.samples;
+        let (value, since) = (record.best_so_far, state.since_progress);
+        self.rules
+            .check(state.history.len(), value, since, seconds + reserve)
+            .or((cut || over_share).then_some(StopReason::TimeLimit))
+    }
+
+    fn closing(&self, record: &ControllerIteration) -> Option<(usize, usize)> {
+        let sampled = matches!(self.search.values, Values::Sampled(_));
+        sampled.then_some((record.episodes as usize, self.search.config.eval_episodes))
+    }
+
+    fn snapshot(&self, state: &SearchState) -> SearchState {
+        SearchState { known: self.search.known(), ..state.clone() }
+    }
+}
+
+/// The runs of a controller search, as the loop over runs drives them.
+struct SearchRuns<'a, 's, O> {
+    search: &'a Search<'s>,
+    observe: &'a mut O,
+}
+
+impl<O: FnMut(&Observed<'_, ControllerIteration>) -> Flow> Runs for SearchRuns<'_, '_, O> {
+    type Kind = ControllerSearch;
+    const CONTINUED: bool = false;
+
+    fn run(
+        &mut self,
+        restart: usize,
+        resume: Option<SearchState>,
+        saver: &mut Saver<'_, ControllerSearch>,
+    ) -> Result<FinishedSearch> {
+        // The later runs skip the memoryless stage: an earlier run found its policy.
+        let stage = saver.state.finished.iter().find_map(|r| r.memoryless.clone());
+        let seed = restart_seed(self.search.config.seed, restart);
+        let run = self.search.run(seed, restart, resume, stage, saver, self.observe)?;
+        if !run.stop.halted() {
+            // The last run over holds the scores (for a resume before the next run's first save).
+            if let Some(last) = saver.state.finished.last_mut() {
+                last.known = Known::default();
+            }
+        }
+        Ok(run)
+    }
+
+    fn stop(run: &FinishedSearch) -> StopReason {
+        run.stop
+    }
+
+    fn spent(&self, saver: &Saver<'_, ControllerSearch>) -> Option<StopReason> {
+        let budget = &self.search.config.budget;
+        if budget.time_limit.is_some_and(|t| saver.seconds() + self.search.reserve() >= t) {
+            Some(StopReason::TimeLimit)
+        } else {
+            self.search.spent().then_some(StopReason::MaxEnvSteps)
+        }
+    }
+
+    /// Runs until the time limit end with the target too. Past the time limit no run starts: a
+    /// run stopped by its share of the limit is followed by the next.
+    fn last(&self, run: &FinishedSearch) -> bool {
+        self.search.config.restarts == 0 && run.stop == StopReason::Target
+    }
+
+    fn aborted(&self) -> bool {
+        self.search.interrupt().is_some_and(Interrupt::aborted)
+    }
+
+    fn steps(&self) -> u64 {
+        self.search.meter.steps()
+    }
 }
 
 /// Controllers valued at once on sampled values with `episodes` each, where a world runs
@@ -375,8 +452,7 @@ impl Search<'_> {
         observe: &mut impl FnMut(&Observed<'_, ControllerIteration>) -> Flow,
     ) -> Result<FinishedSearch> {
         let config = self.config;
-        let rules = config.stop_rules();
-        let mut state = match resume {
+        let state = match resume {
             Some(state) => state,
             None => self.fresh(restart, stage)?,
         };
@@ -384,80 +460,15 @@ impl Search<'_> {
         // the time limit, so that the others have the rest.
         let shared = config.memory == Memory::Alternate && restart + 1 < config.runs();
         let share = ALTERNATE_SHARES.get(restart).zip(config.budget.time_limit.filter(|_| shared)).map(|(s, t)| s * t);
-        // A resumed run whose last iteration meets a stopping rule ends at once.
-        let resumed_stop = state.history.last().and_then(|r| {
-            let spent = self.spent().then_some(StopReason::MaxEnvSteps);
-            rules.check(state.history.len(), r.best_so_far, state.since_progress, r.record.seconds).or(spent)
-        });
-        let stop = if let Some(stop) = resumed_stop {
-            stop
-        } else {
-            // The iterations of the runs before this one (for the callback's count).
-            let earlier: usize = saver.state.finished.iter().map(|r| r.history.len()).sum();
-            loop {
-                let iteration = state.history.len();
-                // The time limit as an instant, so that the exact values can check it as they go.
-                let limit = config.budget.time_limit.map(|t| t - self.reserve());
-                let end = share.map_or(limit, |s| Some(limit.map_or(s, |l| s.min(l))));
-                let (started, steps_before) = (std::time::Instant::now(), self.meter.steps());
-                let deadline = end.map(|t| {
-                    std::time::Instant::now() + std::time::Duration::from_secs_f64((t - saver.seconds()).max(0.0))
-                });
-                let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
-                let valued = self.value(&state.laws, seed, iteration, &over_time);
-                let stop = match valued.and_then(|drawn| self.stage_bar(&state).map(|()| drawn)) {
-                    Ok(drawn) => {
-                        let cut = drawn.cut;
-                        let record = self.learn(&mut state, &drawn, restart, saver.seconds());
-                        let flow = observe(&Observed {
-                            step: &record,
-                            best: &|| self.best_policy(&state),
-                            run: restart,
-                            earlier,
-                        });
-                        if let Values::Sampled(_) = self.values {
-                            let per_episode = started.elapsed().as_secs_f64() / record.episodes.max(1) as f64;
-                            let kept = closing_reserve(config.budget.time_limit, per_episode, config.eval_episodes);
-                            self.reserve.store(kept.to_bits(), std::sync::atomic::Ordering::Relaxed);
-                        }
-                        let (value, seconds) = (record.best_so_far, record.record.seconds);
-                        state.history.push(record);
-                        if self.interrupt().is_some_and(Interrupt::stopping) {
-                            Some(StopReason::Interrupted)
-                        } else {
-                            let over_share = share.is_some_and(|t| seconds >= t);
-                            let spent = self.spent().then_some(StopReason::MaxEnvSteps);
-                            StopReason::asked(flow)
-                                .or_else(|| {
-                                    let closing = seconds + self.reserve();
-                                    rules.check(state.history.len(), value, state.since_progress, closing)
-                                })
-                                .or(spent)
-                                .or((cut || over_share).then_some(StopReason::TimeLimit))
-                        }
-                    }
-                    // Cut by an interrupt: the iteration is dropped (a resumed search draws it
-                    // again, its steps with it), the state is the one after the last whole
-                    // iteration.
-                    Err(Error::Interrupted) => {
-                        self.meter.reset(steps_before);
-                        Some(StopReason::Interrupted)
-                    }
-                    Err(e) => return Err(e),
-                };
-                if state.best.is_none() {
-                    // Cut before the run's first iteration: nothing to keep.
-                    break StopReason::Interrupted;
-                }
-                saver.state.env_steps = self.meter.steps();
-                saver.save_run(stop.is_some(), || SearchState { known: self.known(), ..state.clone() });
-                if let Some(stop) = stop {
-                    break stop;
-                }
-            }
-        };
-        // A run cut before its first iteration has nothing to keep.
-        let (value, controller, best_iteration) = state.best.ok_or(Error::Interrupted)?;
+        // The iterations of the runs before this one (for the callback's count).
+        let earlier: usize = saver.state.finished.iter().map(|r| r.history.len()).sum();
+        let mut it =
+            SearchIterations { search: self, seed, restart, share, rules: config.stop_rules(), clock: saver.clock() };
+        let (budget, meter, interrupt, reserve) = (&config.budget, self.meter, self.interrupt(), self.reserve());
+        let watch = Watch { run: restart, earlier, budget, meter, interrupt, reserve };
+        let Ended { run: state, stop, reserve } = iterate_run(&mut it, state, saver, observe, &watch)?;
+        self.reserve.store(reserve.to_bits(), std::sync::atomic::Ordering::Relaxed);
+        let (value, controller, best_iteration) = state.best.expect("a best controller after an iteration");
         let memoryless = state.memoryless;
         let (history, known) = (state.history, self.known());
         Ok(FinishedSearch { value, controller, best_iteration, history, stop, memoryless, known })

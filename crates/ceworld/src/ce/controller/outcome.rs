@@ -87,17 +87,16 @@ pub struct ControllerOutcome {
 }
 
 impl ControllerOutcome {
-    /// The outcome of a search's `runs` (those over, then the one cut, if any): the first run
-    /// with the highest value, the search stopped for `ended` where something ended it before
-    /// its runs were over, else for its last run's reason; its evaluation, seconds and steps
-    /// left to the caller.
+    /// The outcome of a search's `runs` (those over, then the one cut, if any): run `best`'s
+    /// controller, the search stopped for `stop`; its evaluation, seconds and steps left to the
+    /// caller.
     pub(super) fn of_runs(
         runs: &[&FinishedSearch],
-        ended: Option<StopReason>,
+        best: usize,
+        stop: StopReason,
         kind: ValueKind,
         (y1, n_actions): (usize, usize),
     ) -> crate::error::Result<ControllerOutcome> {
-        let best = (0..runs.len()).fold(0, |b, i| if runs[i].value > runs[b].value { i } else { b });
         let kept = runs[best];
         Ok(ControllerOutcome {
             policy: kept.controller.to_hhmm(y1, n_actions)?,
@@ -108,7 +107,7 @@ impl ControllerOutcome {
             restart: best,
             run_values: runs.iter().map(|r| r.value).collect(),
             history: runs.iter().flat_map(|r| r.history.iter().cloned()).collect(),
-            stop: ended.unwrap_or_else(|| runs.last().expect("at least one run").stop),
+            stop,
             seconds: 0.0,
             checkpoint_error: None,
             env_steps: 0,
