@@ -133,9 +133,9 @@ fn episode_rewards<E: Episodes + ?Sized>(
 }
 
 /// Rewards of the episodes `0..episodes` of streams `(seed, purpose, 0, k)` that finish before
-/// the world's interrupt cuts them (all of them where nothing does) and before `deadline`, in
-/// order, run in slices of [`Episodes::slice`] episodes (of at most [`CLOSING_SLICE`] under a
-/// deadline, the first always run): what an interrupted run can still tell of what it kept, and
+/// the world's interrupt cuts them (all of them where nothing does), before `deadline` and
+/// before a budget in steps is `spent`, in order, run in slices of [`Episodes::slice`] episodes
+/// (of at most [`CLOSING_SLICE`] under a deadline or a budget, the first always run): what an interrupted run can still tell of what it kept, and
 /// what a run's time limit leaves time for. An abort is an error.
 pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
     world: &E,
@@ -144,11 +144,13 @@ pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
     seed: u64,
     purpose: Purpose,
     deadline: Option<Instant>,
+    spent: Option<&(dyn Fn() -> bool + Sync)>,
 ) -> Result<Vec<f64>> {
-    let slice = if deadline.is_some() { world.slice().min(CLOSING_SLICE) } else { world.slice() }.max(1);
+    let cut = deadline.is_some() || spent.is_some();
+    let slice = if cut { world.slice().min(CLOSING_SLICE) } else { world.slice() }.max(1);
     let mut rewards = Vec::with_capacity(episodes);
     for start in (0..episodes).step_by(slice) {
-        if start > 0 && deadline.is_some_and(|d| Instant::now() >= d) {
+        if start > 0 && (deadline.is_some_and(|d| Instant::now() >= d) || spent.is_some_and(|s| s())) {
             break;
         }
         match episode_rewards(world, policy, start..episodes.min(start + slice), seed, purpose) {
@@ -186,7 +188,8 @@ fn deadline_in(seconds: Option<f64>) -> Option<Instant> {
 /// The rewards with which a run closes (its final evaluation, the score that chooses between
 /// restarts): of the episodes `0..episodes` of streams `(seed, purpose, 0, k)`, in slices, those
 /// that finish before the world's interrupt cuts them (all of them where nothing does) and
-/// within the `left` seconds of a time limit (fewer episodes, the run not interrupted), and whether
+/// within the `left` seconds of a time limit and before a budget in steps is `spent` (fewer
+/// episodes, the run not interrupted), and whether
 /// the interrupt cut them. An `interrupted` run closes within the interrupt's grace; a run that
 /// ended by its own rules and is interrupted while it closes keeps the slices done (Ctrl-C
 /// during the final evaluation gives the result with a shorter evaluation). An abort is an
@@ -198,9 +201,10 @@ pub(crate) fn closing_rewards<E: Episodes + ?Sized>(
     seed: u64,
     purpose: Purpose,
     left: Option<f64>,
+    spent: Option<&(dyn Fn() -> bool + Sync)>,
 ) -> Result<(Vec<f64>, bool)> {
     check_fits(world, policy)?;
-    let rewards = rewards_until_cut(world, policy, episodes, seed, purpose, deadline_in(left))?;
+    let rewards = rewards_until_cut(world, policy, episodes, seed, purpose, deadline_in(left), spent)?;
     let cut = rewards.len() < episodes && world.interrupt().is_some_and(crate::control::Interrupt::stopping);
     Ok((rewards, cut))
 }
@@ -218,7 +222,7 @@ pub(crate) fn final_evaluation<E: Episodes + ?Sized>(
     left: Option<f64>,
 ) -> Result<(Evaluation, bool)> {
     world.interrupt().filter(|_| interrupted).inspect(|i| i.grace(crate::control::GRACE));
-    let (rewards, cut) = closing_rewards(world, policy, episodes, seed, Purpose::Evaluate, left)?;
+    let (rewards, cut) = closing_rewards(world, policy, episodes, seed, Purpose::Evaluate, left, None)?;
     Ok((Evaluation::from_rewards(&rewards), cut))
 }
 

@@ -132,8 +132,10 @@ impl Progress {
     /// The line for `r` given the best iteration so far.
     pub fn text(&self, step: &impl Step) -> String {
         let (r, detail) = (step.record(), step.detail());
+        // The world's steps learning has taken, where it takes any (not on exact values).
+        let steps = if r.env_steps > 0 { format!("  {} steps", steps(r.env_steps)) } else { String::new() };
         format!(
-            "iter {:>5}  mean {:>9.3}  elite>= {:>9.3}  {} {:>9.3} (iter {})  no gain {:>3}/{}  {:>6.1}s{}{detail}",
+            "iter {:>5}  mean {:>9.3}  elite>= {:>9.3}  {} {:>9.3} (iter {})  no gain {:>3}/{}  {:>6.1}s{steps}{}{detail}",
             r.iteration,
             r.mean,
             r.elite_threshold,
@@ -182,6 +184,17 @@ impl Step for ControllerIteration {
             _ => "",
         };
         format!("concentration {:.3}{escape}", self.concentration)
+    }
+}
+
+/// A count of steps in a few characters: `950`, `12.3k`, `4.56M`, `7.89G`.
+pub fn steps(n: u64) -> String {
+    let x = n as f64;
+    match n {
+        0..1_000 => n.to_string(),
+        1_000..1_000_000 => format!("{:.1}k", x / 1e3),
+        1_000_000..1_000_000_000 => format!("{:.2}M", x / 1e6),
+        _ => format!("{:.2}G", x / 1e9),
     }
 }
 
@@ -261,6 +274,16 @@ mod tests {
         let text = p.text(&record(3, 2.5, false));
         assert!(text.contains("best mean     3.000 (iter 1)") && text.contains("no gain   1/100"), "{text}");
         assert!(!text.contains('\r') && !text.contains('\x1b'));
+    }
+
+    #[test]
+    fn the_line_shows_the_world_s_steps_where_learning_takes_any() {
+        let p = Progress::new(100, 1, LiveLine::new(false));
+        assert!(!p.text(&record(0, 1.0, true)).contains("steps"));
+        let taken = IterationRecord { env_steps: 1_234_567, ..record(0, 1.0, true) };
+        assert!(p.text(&taken).contains("s  1.23M steps"), "{}", p.text(&taken));
+        let shown: Vec<String> = [999, 12_345, 4_560_000, 7_890_000_000].into_iter().map(steps).collect();
+        assert_eq!(shown, ["999", "12.3k", "4.56M", "7.89G"]);
     }
 
     #[test]

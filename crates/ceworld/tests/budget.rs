@@ -99,10 +99,12 @@ fn episode_ce_counts_every_step_and_cuts_the_iteration_that_reaches_the_budget()
 fn restarts_share_the_budget_in_steps() {
     // The first run converges in 13 iterations of 2000 steps, then its score takes 3000; the
     // second is stopped by the budget (its last iteration whole: 200 episodes are one cut), is
-    // scored, and no third run starts.
+    // scored on the first slice of its selection episodes alone (the budget is spent), and no
+    // third run starts.
     let config = CeConfig { restarts: 3, patience: 2, ..ce(200, 40_000, 1) };
     let r = run_ce(&config);
-    assert!(r.env_steps >= 40_000 && r.env_steps <= 40_000 + 2000 + 3000, "{}", r.env_steps);
+    let slice = (ceworld::evaluate::CLOSING_SLICE * HORIZON) as u64;
+    assert!(r.env_steps >= 40_000 && r.env_steps <= 40_000 + 2000 + slice, "{}", r.env_steps);
     assert_eq!((r.stop, r.restart_scores.len()), (StopReason::MaxEnvSteps, 2));
 }
 

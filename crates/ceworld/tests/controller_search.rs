@@ -350,10 +350,13 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         max_iterations: Some(24),
         ..config.clone()
     };
+    // A budget in steps instead of a count of iterations: the steps are resumed too.
+    let budgeted = ControllerConfig { max_iterations: None, budget: Budget::steps(250_000), ..config.clone() };
     let cases = [
         ("exact", Valued::Exact(&tiger), &config),
         ("sampled", Valued::Sampled(&tiger), &config),
         ("staged", Valued::Sampled(&tiger), &staged),
+        ("budgeted", Valued::Sampled(&tiger), &budgeted),
     ];
     for (name, valued, config) in cases {
         let whole = optimize_controller(valued, config, |_| Flow::Continue).unwrap();
@@ -377,9 +380,10 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
         };
         assert_eq!(strip(&resumed.history), strip(&whole.history), "{name}");
         assert_eq!(
-            (&resumed.policy, resumed.value, &resumed.run_values),
-            (&whole.policy, whole.value, &whole.run_values)
+            (&resumed.policy, resumed.value, &resumed.run_values, resumed.env_steps, resumed.stop),
+            (&whole.policy, whole.value, &whole.run_values, whole.env_steps, whole.stop)
         );
+        assert_eq!(whole.stop == StopReason::MaxEnvSteps, name == "budgeted", "{name}: {:?}", whole.stop);
         // Another search's settings are refused, naming what differs.
         let other = ControllerConfig { rho: 0.2, ..config.clone() };
         let e = optimize_controller_with(valued, &other, Some(&checkpointing), |_| Flow::Continue).unwrap_err();

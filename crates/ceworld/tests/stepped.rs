@@ -6,6 +6,7 @@
 #[path = "common/temp.rs"]
 mod temp;
 
+use ceworld::ce::budget::Budget;
 use ceworld::ce::random_search::{RandomSearch, RandomSearchConfig};
 use ceworld::ce::stepped::run_stepped;
 use ceworld::run::{OPTIMISERS, RunOptions, optimiser};
@@ -109,8 +110,19 @@ fn a_run_resumes_from_its_checkpoint_bit_for_bit() {
     let rest = run_stepped::<RandomSearch>(&world, &config(9), Some(&checkpointing), |_| Flow::Continue).unwrap();
     assert_eq!(rest.policy, whole.policy);
     assert_eq!(rest.evaluation, whole.evaluation);
-    let strip = |h: &[ceworld::IterationRecord]| h.iter().map(|r| (r.mean, r.best, r.successful)).collect::<Vec<_>>();
+    let strip = |h: &[ceworld::IterationRecord]| {
+        h.iter().map(|r| (r.mean, r.best, r.successful, r.env_steps)).collect::<Vec<_>>()
+    };
     assert_eq!(strip(&rest.history), strip(&whole.history));
+    assert_eq!(rest.env_steps, whole.env_steps);
+    // A budget in steps, given on resume, counts on from the steps already taken.
+    let steps = whole.history[6].env_steps;
+    let path = temp::TempPath::new("ceworld-stepped", "budget.ckpt");
+    let checkpointing = Checkpointing { path: path.to_path_buf(), ..checkpointing };
+    run_stepped::<RandomSearch>(&world, &config(4), Some(&checkpointing), |_| Flow::Continue).unwrap();
+    let budget = RandomSearchConfig { max_iterations: None, budget: Budget::steps(steps), ..config(9) };
+    let spent = run_stepped::<RandomSearch>(&world, &budget, Some(&checkpointing), |_| Flow::Continue).unwrap();
+    assert_eq!((spent.stop, spent.env_steps, spent.history.len()), (StopReason::MaxEnvSteps, steps, 7));
     // Other settings are refused, naming the setting.
     let other = RandomSearchConfig { nodes: 4, ..config(9) };
     let e = run_stepped::<RandomSearch>(&world, &other, Some(&checkpointing), |_| Flow::Continue).unwrap_err();

@@ -33,7 +33,8 @@ pub struct Budget {
     /// Stop once learning has taken this many of the world's steps (the steps of the episodes
     /// sampled to learn, every run and every session together; the final evaluation's are
     /// counted apart). An iteration that would cross it is cut after the batch of episodes that
-    /// reaches it, so the count passes it by one batch at most (the result says so: stop
+    /// reaches it (and so is a run's score between restarts), so the count passes it by about
+    /// one batch at most (the result says so: stop
     /// `max_env_steps`). The count is the same for any thread or worker count. Refused on a
     /// world valued exactly (it takes no steps).
     #[cfg_attr(feature = "cli", arg(long))]

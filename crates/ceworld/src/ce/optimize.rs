@@ -133,9 +133,13 @@ impl<E: Episodes + ?Sized> Runs for CeRuns<'_, '_, E> {
             return Ok(FinishedRun { score: f64::NAN, result });
         }
         let (policy, left) = (&result.policy, config.budget.time_limit.map(|t| t - saver.seconds()));
-        let (episodes, seed) = (config.eval_episodes, config.seed);
+        let (episodes, seed, world) = (config.eval_episodes, config.seed, self.world);
+        // Learning's steps: under a budget, the score is cut where it is spent (the first slice
+        // always runs), as the time limit cuts it.
+        let spent = || config.budget.spent(world.steps());
+        let budget = config.budget.max_env_steps.map(|_| &spent as &(dyn Fn() -> bool + Sync));
         let (scored, cut) =
-            self.pool.install(|| closing_rewards(self.world, policy, episodes, seed, Purpose::Select, left))?;
+            self.pool.install(|| closing_rewards(world, policy, episodes, seed, Purpose::Select, left, budget))?;
         if cut {
             // Interrupted while scored: the checkpoint holds the run, which a resume closes again.
             result.stop = StopReason::Interrupted;
