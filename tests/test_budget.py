@@ -153,3 +153,15 @@ def test_the_command_line_takes_the_budget(tmp_path: Path) -> None:
     assert done.stdout.startswith("max_env_steps: 3 iterations (60000 steps of the world)"), done.stdout
     provenance = cehmm.Policy.load(tmp_path / "p.json").provenance
     assert (provenance["max_env_steps"], provenance["env_steps"]) == (50000, 60000)
+
+
+def test_a_popgym_environment_s_steps_are_counted() -> None:
+    # A third-party environment keeps its state its own way: every step it is asked for is
+    # learning's or the final evaluation's, nothing else.
+    pytest.importorskip("popgym")
+    CountedEnv.steps = 0
+    env = CountedEnv(gym.make("popgym-RepeatPreviousEasy-v0"))
+    settings = dict(nodes=4, samples=50, episodes=5, select_episodes=20, eval_episodes=50, progress=False)
+    r = cehmm.optimize_controller(env, horizon=110, max_env_steps=50_000, **settings)
+    assert r.stop_reason == "max_env_steps" and r.env_steps >= 50_000
+    assert r.env_steps + r.eval_env_steps == CountedEnv.steps
