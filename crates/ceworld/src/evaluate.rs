@@ -135,8 +135,9 @@ fn episode_rewards<E: Episodes + ?Sized>(
 /// Rewards of the episodes `0..episodes` of streams `(seed, purpose, 0, k)` that finish before
 /// the world's interrupt cuts them (all of them where nothing does), before `deadline` and
 /// before a budget in steps is `spent`, in order, run in slices of [`Episodes::slice`] episodes
-/// (of at most [`CLOSING_SLICE`] under a deadline or a budget, the first always run): what an interrupted run can still tell of what it kept, and
-/// what a run's time limit leaves time for. An abort is an error.
+/// (of at most [`CLOSING_SLICE`] under a deadline or a budget, the first always run): what an
+/// interrupted run can still tell of what it kept, and what a run's time limit leaves time for.
+/// An abort is an error.
 pub(crate) fn rewards_until_cut<E: Episodes + ?Sized>(
     world: &E,
     policy: &Hhmm,
@@ -189,11 +190,10 @@ fn deadline_in(seconds: Option<f64>) -> Option<Instant> {
 /// restarts): of the episodes `0..episodes` of streams `(seed, purpose, 0, k)`, in slices, those
 /// that finish before the world's interrupt cuts them (all of them where nothing does) and
 /// within the `left` seconds of a time limit and before a budget in steps is `spent` (fewer
-/// episodes, the run not interrupted), and whether
-/// the interrupt cut them. An `interrupted` run closes within the interrupt's grace; a run that
-/// ended by its own rules and is interrupted while it closes keeps the slices done (Ctrl-C
-/// during the final evaluation gives the result with a shorter evaluation). An abort is an
-/// error.
+/// episodes, the run not interrupted), and whether the interrupt cut them. An `interrupted` run
+/// closes within the interrupt's grace; a run that ended by its own rules and is interrupted
+/// while it closes keeps the slices done (Ctrl-C during the final evaluation gives the result
+/// with a shorter evaluation). An abort is an error.
 pub(crate) fn closing_rewards<E: Episodes + ?Sized>(
     world: &E,
     policy: &Hhmm,

@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+use crate::ce::stopping::StopReason;
 use crate::control::Interrupt;
 use crate::episodes::credit::StepCredit;
 use crate::episodes::{Batch, Episodes, Remote, Shape, Streams};
@@ -94,6 +95,15 @@ impl Budget {
     /// Whether `steps` of the world spend the budget in steps.
     pub fn spent(&self, steps: u64) -> bool {
         self.max_env_steps.is_some_and(|m| steps >= m)
+    }
+
+    /// Which budget `seconds` and `steps` have spent, if one is: the time limit first.
+    pub fn exhausted(&self, seconds: f64, steps: u64) -> Option<StopReason> {
+        if self.time_limit.is_some_and(|t| seconds >= t) {
+            Some(StopReason::TimeLimit)
+        } else {
+            self.spent(steps).then_some(StopReason::MaxEnvSteps)
+        }
     }
 
     /// The episodes an iteration runs between two looks at the budget in steps, on a world that
@@ -241,6 +251,9 @@ mod tests {
         assert!(e.contains("max_env_steps") && e.contains("10 on exact values"), "{e}");
         assert!(Budget::seconds(1.0).check_sampled("exact values").is_ok());
         assert_eq!((Budget::default().cut(1), Budget::steps(1).cut(1)), (None, Some(CUT_EPISODES)));
+        let both = Budget { time_limit: Some(2.0), max_env_steps: Some(10) };
+        let exhausted = [(1.0, 9), (2.0, 10), (1.0, 10)].map(|(t, n)| both.exhausted(t, n));
+        assert_eq!(exhausted, [None, Some(StopReason::TimeLimit), Some(StopReason::MaxEnvSteps)]);
         assert_eq!((Budget::steps(1).cut(100), Budget::steps(1).cut(1000)), (Some(200), Some(1000)));
     }
 }

@@ -152,12 +152,7 @@ impl<E: Episodes + ?Sized> Runs for CeRuns<'_, '_, E> {
     }
 
     fn spent(&self, saver: &Saver<'_, CeRun>) -> Option<StopReason> {
-        let budget = &self.config.budget;
-        if budget.time_limit.is_some_and(|t| saver.seconds() >= t) {
-            Some(StopReason::TimeLimit)
-        } else {
-            budget.spent(self.world.steps()).then_some(StopReason::MaxEnvSteps)
-        }
+        self.config.budget.exhausted(saver.seconds(), self.world.steps())
     }
 
     fn aborted(&self) -> bool {
@@ -331,6 +326,8 @@ impl<E: Episodes + ?Sized> Iterations for CeIterations<'_, '_, E> {
 /// An iteration's episodes, their order and the elite's counting, reused from one iteration to
 /// the next.
 struct Buffers {
+    /// Numbers of one episode's record (`horizon · record_width`).
+    stride: usize,
     records: Vec<u16>,
     rewards: Vec<f64>,
     lengths: Vec<u32>,
@@ -354,6 +351,7 @@ impl Buffers {
         let stride = world.shape().horizon * policy.layout().record_width();
         let recorded = remote.is_none();
         Buffers {
+            stride,
             records: vec![0u16; if recorded { n * stride } else { 0 }],
             rewards: vec![0.0f64; n],
             lengths: vec![0u32; if recorded { n } else { 0 }],
@@ -377,10 +375,11 @@ impl Buffers {
     ) -> Result<(usize, usize, Counts)> {
         let seed = config.seed;
         let streams = Streams { seed, purpose: Purpose::Optimise, iteration: iteration as u64 };
-        let Buffers { records, rewards, lengths, keys, order, chunk } = self;
+        let Buffers { stride, records, rewards, lengths, keys, order, chunk } = self;
+        let stride = *stride;
         let m = pool.install(|| {
             let records = remote.is_none().then_some((&mut records[..], &mut lengths[..]));
-            sample(world, policy, streams, rewards, records, config)
+            sample(world, policy, streams, rewards, records, stride, config)
         })?;
         let elite_count = config.elite_of(m);
         let threshold =
@@ -390,7 +389,7 @@ impl Buffers {
             Counts::Integer(remote.counts(policy, streams, elite)?)
         } else {
             // Each episode's record up to where it stopped (model §1): counting stops there too.
-            let (width, stride) = (policy.layout().record_width(), records.len() / rewards.len());
+            let width = policy.layout().record_width();
             let record_of = |k: usize| &records[k * stride..k * stride + lengths[k] as usize * width];
             pool.install(|| count_elite(policy, elite, &record_of, config.memory_update, *chunk))
         };
@@ -398,7 +397,8 @@ impl Buffers {
     }
 }
 
-/// Runs the iteration's episodes into `rewards` (and `records`, where kept): all of them, or,
+/// Runs the iteration's episodes into `rewards` (and `records`, where kept, with the numbers of
+/// one episode's record): all of them, or,
 /// under a budget in steps, whole cuts ([`crate::ce::budget::Budget::cut`]) until the budget is
 /// spent (the first always). The episodes run: the first ones, in order.
 fn sample<E: Episodes + ?Sized>(
@@ -407,6 +407,7 @@ fn sample<E: Episodes + ?Sized>(
     streams: Streams,
     rewards: &mut [f64],
     mut records: Option<(&mut [u16], &mut [u32])>,
+    stride: usize,
     config: &CeConfig,
 ) -> Result<usize> {
     let Some(cut) = config.budget.cut(world.batch()) else {
@@ -414,7 +415,6 @@ fn sample<E: Episodes + ?Sized>(
         return Ok(rewards.len());
     };
     let (n, mut start) = (rewards.len(), 0);
-    let stride = records.as_ref().map_or(0, |(r, _)| r.len() / n);
     while start < n && (start == 0 || !config.budget.spent(world.steps())) {
         let end = n.min(start + cut);
         let records = records.as_mut().map(|(r, l)| (&mut r[start * stride..end * stride], &mut l[start..end]));

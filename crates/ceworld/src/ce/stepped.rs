@@ -16,7 +16,7 @@ use crate::ce::iterations::{Ended, Iterations, Watch, iterate_run};
 use crate::ce::record::IterationRecord;
 use crate::ce::resume::{Checkpointing, Clock, Resumable, Saver};
 use crate::ce::runs::{Runs, over_runs};
-use crate::ce::stopping::{Observed, StopReason};
+use crate::ce::stopping::{Observed, StopReason, StopRules};
 use crate::control::{Flow, thread_pool};
 use crate::episodes::Episodes;
 use crate::error::Result;
@@ -323,14 +323,10 @@ impl<O: Stepped> Iterations for SteppedIterations<'_, '_, O> {
     }
 
     fn stop(&self, run: &SteppedRun<O>, record: &IterationRecord, reserve: f64) -> Option<StopReason> {
-        let (rules, iterations) = (self.rules, run.history.len());
-        if run.since >= rules.patience {
-            Some(StopReason::Patience)
-        } else if rules.max_iterations.is_some_and(|m| iterations >= m) {
-            Some(StopReason::MaxIterations)
-        } else {
-            rules.budget.time_limit.is_some_and(|t| record.seconds + reserve >= t).then_some(StopReason::TimeLimit)
-        }
+        let Rules { patience, max_iterations, budget, .. } = *self.rules;
+        // The shared rules, without a target (a stepped optimiser has none).
+        let rules = StopRules { target: None, patience, max_iterations, time_limit: budget.time_limit };
+        rules.check(run.history.len(), record.mean, run.since, record.seconds + reserve)
     }
 
     fn closing(&self, _: &IterationRecord) -> Option<(usize, usize)> {

@@ -193,7 +193,8 @@ impl Iterations for SearchIterations<'_, '_> {
     fn stop(&self, state: &SearchState, record: &ControllerIteration, reserve: f64) -> Option<StopReason> {
         let seconds = record.record.seconds;
         let over_share = self.share.is_some_and(|t| seconds >= t);
-        // An iteration the time limit cut valued fewer controllers than drawn.
+        // An iteration cut valued fewer controllers than drawn: by the time limit here (one the
+        // budget in steps cut has stopped for it already).
         let cut = record.evaluated < self.search.config.samples;
         let (value, since) = (record.best_so_far, state.since_progress);
         self.rules
@@ -244,13 +245,10 @@ impl<O: FnMut(&Observed<'_, ControllerIteration>) -> Flow> Runs for SearchRuns<'
         run.stop
     }
 
+    /// A later run starts only while the final evaluation still fits in the time left.
     fn spent(&self, saver: &Saver<'_, ControllerSearch>) -> Option<StopReason> {
-        let budget = &self.search.config.budget;
-        if budget.time_limit.is_some_and(|t| saver.seconds() + self.search.reserve() >= t) {
-            Some(StopReason::TimeLimit)
-        } else {
-            self.search.spent().then_some(StopReason::MaxEnvSteps)
-        }
+        let search = self.search;
+        search.config.budget.exhausted(saver.seconds() + search.reserve(), search.meter.steps())
     }
 
     /// Runs until the time limit end with the target too. Past the time limit no run starts: a
