@@ -8,7 +8,9 @@ signature fails here, naming the function and the setting."""
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
+from pathlib import Path
 from typing import Any, Callable
 
 import pytest
@@ -149,3 +151,36 @@ def test_a_missing_or_stray_setting_is_named() -> None:
 
     (problem,) = signature_problems("by_kind", by_kind, {"samples": 2000}, {"samples": 1000})
     assert "by_kind(samples=3)" in problem and "must be None" in problem
+
+
+def test_a_result_has_the_fields_the_engine_hands_on(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A result's fields are named in the engine's summary struct (serialised by name) and in the
+    # Python class a user reads: the dict each optimiser's binding returns has exactly the class's
+    # fields (a field added on one side only fails here, named), its evaluation Evaluation's.
+    raw: dict[str, dict[str, Any]] = {}
+
+    def spy(name: str) -> Callable[..., Any]:
+        original = getattr(_core, name)
+
+        def call(*args: Any, **kwargs: Any) -> Any:
+            raw[name] = original(*args, **kwargs)
+            return raw[name]
+
+        return call
+
+    for name in ("optimize", "optimize_controller", "run"):
+        monkeypatch.setattr(_core, name, spy(name))
+    tiger = cehmm.PomdpWorld(Path(__file__).parents[1] / "data" / "pomdp" / "tiger.95.POMDP", horizon=20)
+    small = {"max_iterations": 1, "seed": 0, "eval_episodes": 10, "progress": False}
+    cehmm.optimize(tiger, levels=[2], samples=20, **small)
+    cehmm.optimize_controller(tiger, nodes=2, value="sampled", samples=20, episodes=5, **small)
+    cehmm.run("random-search", tiger, samples=5, **small)
+    for name, cls in (
+        ("optimize", cehmm.OptimizeResult),
+        ("optimize_controller", cehmm.ControllerResult),
+        ("run", cehmm.RunResult),
+    ):
+        declared = {f.name for f in dataclasses.fields(cls)}
+        assert set(raw[name]) == declared, f"{name}: {set(raw[name]) ^ declared}"
+        assert {"stop_reason", "seconds", "env_steps", "eval_env_steps"} <= declared
+        assert set(raw[name]["evaluation"]) == {f.name for f in dataclasses.fields(cehmm.Evaluation)}

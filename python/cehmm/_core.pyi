@@ -171,23 +171,6 @@ class TablesDict(TypedDict):
     h1: npt.NDArray[np.float64]  # (Y, U, |M_1|)
     upper: list[UpperTables]  # levels 2..Λ
 
-class HistoryDict(TypedDict):
-    iteration: npt.NDArray[np.int64]  # (iterations,)
-    mean: npt.NDArray[np.float64]
-    best: npt.NDArray[np.float64]
-    elite_threshold: npt.NDArray[np.float64]
-    elite_mean: npt.NDArray[np.float64]
-    seconds: npt.NDArray[np.float64]
-    successful: npt.NDArray[np.bool_]
-    env_steps: npt.NDArray[np.int64]
-
-class ControllerHistoryDict(HistoryDict):
-    restart: npt.NDArray[np.int64]
-    best_so_far: npt.NDArray[np.float64]
-    concentration: npt.NDArray[np.float64]
-    evaluated: npt.NDArray[np.int64]
-    injected: npt.NDArray[np.bool_]
-
 @final
 class World:
     """``ceworld::AnyWorld``: any registered world, by name (model §1)."""
@@ -247,23 +230,6 @@ class OutsideWorld:
     @property
     def batch(self) -> int: ...
 
-class _EvaluationDict(TypedDict):
-    """``cehmm.results.Evaluation``'s fields."""
-
-    episodes: int
-    mean: float
-    std_error: float
-    std: float
-    min: float
-    max: float
-    quantiles: dict[float, float]
-    shown: str
-
-class _ExactValueDict(TypedDict):
-    value: float
-    steps: int
-    tail_bound: float
-
 class _RolloutDict(TypedDict):
     x: npt.NDArray[np.int64]  # (T, k), k = len(x_labels)
     x_labels: list[str]
@@ -273,8 +239,8 @@ class _RolloutDict(TypedDict):
     reward: float
 
 class _WindowsDict(TypedDict):
-    from_start: _EvaluationDict
-    continuing: _EvaluationDict
+    from_start: dict[str, Any]
+    continuing: dict[str, Any]
     reference: float
     shown: str
 
@@ -313,7 +279,7 @@ class Policy:
     def tables(self) -> TablesDict: ...
     def evaluate(
         self, world: World | OutsideWorld, episodes: int, seed: int, threads: int | None = None
-    ) -> _EvaluationDict: ...
+    ) -> dict[str, Any]: ...
     def rollout(self, world: World | OutsideWorld, seed: int, episode: int) -> _RolloutDict: ...
     def shard_rewards(
         self,
@@ -335,7 +301,7 @@ class Policy:
     ) -> npt.NDArray[np.uint32]: ...
     def evaluate_exact(
         self, world: World | OutsideWorld, horizon: int | None, infinite: bool, tolerance: float
-    ) -> _ExactValueDict: ...
+    ) -> dict[str, Any]: ...
     def graph(self, world: World | OutsideWorld, form: str, prune: float) -> Any: ...
     def most_likely(self) -> Policy: ...
 
@@ -343,21 +309,6 @@ class Policy:
 #: history's fields and ``score``) and the best policy so far (``None`` for Q-learning); False
 #: stops the run (stop reason ``"callback"``), None or True goes on.
 _Callback = Callable[[dict[str, Any], Policy | None], bool | None]
-
-class _OptimizeOutcome(TypedDict):
-    """``ceworld::CeResult`` with its best and last policies (wrapped by ``cehmm.OptimizeResult``)."""
-
-    policy: Policy
-    last_policy: Policy
-    history: HistoryDict
-    evaluation: _EvaluationDict
-    stop_reason: str
-    interrupted: bool
-    best_iteration: int
-    iterations: int
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
 
 def controller_values(
     world: World | OutsideWorld,
@@ -402,25 +353,7 @@ def optimize(
     checkpoint_every: float | None = None,
     resume: bool | None = None,
     callback: _Callback | None = None,
-) -> _OptimizeOutcome: ...
-
-class _ControllerOutcome(TypedDict):
-    """``ceworld::ce::controller::ControllerOutcome`` with its policy file (wrapped by ``cehmm.ControllerResult``)."""
-
-    policy: Policy
-    value: float
-    kind: str
-    evaluation: _EvaluationDict | None
-    history: ControllerHistoryDict
-    stop_reason: str
-    interrupted: bool
-    best_iteration: int
-    restart: int
-    run_values: list[float]
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
-
+) -> dict[str, Any]: ...
 def optimize_controller(
     world: World | OutsideWorld,
     settings: Mapping[str, object],
@@ -431,19 +364,7 @@ def optimize_controller(
     checkpoint_every: float | None = None,
     resume: bool | None = None,
     callback: _Callback | None = None,
-) -> _ControllerOutcome: ...
-
-class _RunOutcome(TypedDict):
-    """``ceworld::ce::stepped::SteppedOutcome`` with its policy file (wrapped by ``cehmm.RunResult``)."""
-
-    policy: Policy
-    history: HistoryDict
-    evaluation: _EvaluationDict
-    stop_reason: str
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
-
+) -> dict[str, Any]: ...
 def run(
     name: str,
     world: World | OutsideWorld | RemoteWorld,
@@ -454,7 +375,7 @@ def run(
     checkpoint_every: float | None = None,
     resume: bool | None = None,
     callback: _Callback | None = None,
-) -> _RunOutcome: ...
+) -> dict[str, Any]: ...
 
 @final
 class Agent:

@@ -18,7 +18,7 @@ from .optimizer import CE_DEFAULTS
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
-from .results import Evaluation, evaluation
+from .results import Ending, Evaluation
 from .world import core_world
 
 #: The engine's defaults (one home: ``ceworld::ControllerConfig::default()``).
@@ -26,7 +26,7 @@ CONTROLLER_DEFAULTS = _core.CONTROLLER_DEFAULTS
 
 
 @dataclass(frozen=True, repr=False, eq=False)
-class ControllerResult:
+class ControllerResult(Ending):
     """The outcome of :func:`optimize_controller`.
 
     Attributes:
@@ -82,14 +82,9 @@ class ControllerResult:
     kind: str
     evaluation: Evaluation | None
     history: dict[str, np.ndarray]
-    stop_reason: str
-    interrupted: bool
     best_iteration: int
     restart: int
     run_values: list[float]
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
 
     def plot(self, x: str = "iteration") -> Any:
         """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""
@@ -355,14 +350,4 @@ def optimize_controller(
             resume=resume,
             callback=run.hook,
         )
-        found = raw["evaluation"]
-        return run.ended(
-            ControllerResult(
-                **{
-                    **raw,
-                    "policy": Policy(raw["policy"]),
-                    "run_values": list(raw["run_values"]),
-                    "evaluation": None if found is None else evaluation(found),
-                }
-            )
-        )
+        return run.ended(ControllerResult._from_core(raw))

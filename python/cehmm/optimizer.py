@@ -16,7 +16,7 @@ from .callbacks import CallbackLike
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
-from .results import Evaluation, evaluation
+from .results import Ending, Evaluation
 from .world import core_world
 
 #: What :func:`optimize` starts from.
@@ -32,7 +32,7 @@ MEMORY_UPDATES = tuple(_core.MEMORY_UPDATES)
 
 
 @dataclass(frozen=True, repr=False, eq=False)
-class OptimizeResult:
+class OptimizeResult(Ending):
     """The outcome of :func:`optimize`.
 
     Attributes:
@@ -69,24 +69,12 @@ class OptimizeResult:
     last_policy: Policy
     history: dict[str, np.ndarray]
     evaluation: Evaluation
-    stop_reason: str
-    interrupted: bool
     best_iteration: int
-    iterations: int
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
 
-    @classmethod
-    def _from_core(cls, core: _core._OptimizeOutcome) -> OptimizeResult:
-        return cls(
-            **{
-                **core,
-                "policy": Policy(core["policy"]),
-                "last_policy": Policy(core["last_policy"]),
-                "evaluation": evaluation(core["evaluation"]),
-            }
-        )
+    @property
+    def iterations(self) -> int:
+        """Number of iterations run."""
+        return len(self.history["iteration"])
 
     def plot(self, x: str = "iteration") -> Any:
         """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""

@@ -18,7 +18,7 @@ from .optimizer import CE_DEFAULTS
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
-from .results import Evaluation, evaluation
+from .results import Ending, Evaluation
 from .world import core_world
 
 #: Every optimiser given by its step: name -> its settings with their defaults.
@@ -26,7 +26,7 @@ OPTIMISERS: dict[str, dict[str, Any]] = dict(_core.OPTIMISERS)
 
 
 @dataclass(frozen=True, eq=False)
-class RunResult:
+class RunResult(Ending):
     """The outcome of :func:`run`.
 
     Attributes:
@@ -54,15 +54,6 @@ class RunResult:
     policy: Policy
     history: dict[str, np.ndarray]
     evaluation: Evaluation
-    stop_reason: str
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
-
-    @property
-    def interrupted(self) -> bool:
-        """Whether Ctrl-C stopped it."""
-        return self.stop_reason == "interrupted"
 
 
 def run(
@@ -117,6 +108,4 @@ def run(
             resume=resume,
             callback=run.hook,
         )
-        return run.ended(
-            RunResult(**{**raw, "policy": Policy(raw["policy"]), "evaluation": evaluation(raw["evaluation"])})
-        )
+        return run.ended(RunResult._from_core(raw))

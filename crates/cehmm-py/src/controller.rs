@@ -5,7 +5,6 @@
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use ceworld::StopReason;
 use ceworld::ce::controller::ValueKind;
 use ceworld::ce::controller::checkpoint::ControllerSearch;
 use ceworld::ce::resume::Checkpoint;
@@ -51,19 +50,9 @@ pub fn optimize_controller<'py>(
     };
     let (file, o) =
         watched(py, &world, progress, checkpointing.as_ref(), callback, search, |o| o.1.checkpoint_error.as_deref())?;
-    let result = PyDict::new(py);
+    let result = crate::results::fields(py, &o.summary())?;
     result.set_item("history", columns(py, &o.history)?)?;
     result.set_item("policy", PyPolicy { file })?;
-    result.set_item("value", o.value)?;
-    result.set_item("kind", o.kind.as_str())?;
     result.set_item("evaluation", o.evaluation.as_ref().map(|e| crate::results::evaluation(py, e)).transpose()?)?;
-    result.set_item("stop_reason", o.stop.as_str())?;
-    result.set_item("interrupted", o.stop == StopReason::Interrupted)?;
-    result.set_item("best_iteration", o.best_iteration)?;
-    result.set_item("restart", o.restart)?;
-    result.set_item("run_values", o.run_values)?;
-    result.set_item("seconds", o.seconds)?;
-    result.set_item("env_steps", o.env_steps)?;
-    result.set_item("eval_env_steps", o.eval_env_steps)?;
     Ok(result)
 }

@@ -45,17 +45,10 @@ pub fn optimize<'py>(
     };
     let (best, last, r) =
         watched(py, &world, progress, checkpointing.as_ref(), callback, run, |o| o.2.checkpoint_error.as_deref())?;
-    let result = PyDict::new(py);
+    let result = crate::results::fields(py, &r.summary())?;
     result.set_item("history", columns(py, &r.history)?)?;
     result.set_item("policy", PyPolicy { file: best })?;
     result.set_item("last_policy", PyPolicy { file: last })?;
     result.set_item("evaluation", crate::results::evaluation(py, &r.evaluation)?)?;
-    result.set_item("stop_reason", r.stop.as_str())?;
-    result.set_item("interrupted", r.interrupted())?;
-    result.set_item("best_iteration", r.best_iteration)?;
-    result.set_item("iterations", r.history.len())?;
-    result.set_item("seconds", r.seconds)?;
-    result.set_item("env_steps", r.env_steps)?;
-    result.set_item("eval_env_steps", r.eval_env_steps)?;
     Ok(result)
 }

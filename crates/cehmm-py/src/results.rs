@@ -1,28 +1,34 @@
 //! Results as Python values: dicts of numbers, strings and numpy arrays, which `cehmm.results`
-//! makes into its classes (`cehmm.Evaluation`, `cehmm.Rollout`, ...). The lines they show
-//! (`repr`) are the core's (`ceworld::progress`).
+//! makes into its classes (`cehmm.Evaluation`, `cehmm.Rollout`, ...) by their keys. A result's
+//! plain fields are the core's `Serialize` structs ([`fields`]: each field named once, in the core,
+//! and once in the Python class a user reads); what needs translating (policies, histories as numpy
+//! columns, quantiles keyed by numbers) is added here. The lines they show (`repr`) are the core's
+//! (`ceworld::progress`).
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use serde::Serialize;
 
 use ceworld::episodes::run::Rollout;
 use ceworld::exact::ExactValue;
 use ceworld::qlearn::WindowReport;
 use ceworld::{Evaluation, progress};
 
-/// `{episodes, mean, std_error, std, min, max, quantiles: {q: value}, shown}`.
+/// The fields of `value` (a struct) as a dict, as serde names them.
+pub fn fields<'py>(py: Python<'py>, value: &impl Serialize) -> PyResult<Bound<'py, PyDict>> {
+    let value = serde_json::to_value(value).expect("a result serialises");
+    Ok(crate::convert::to_py(py, &value)?.cast_into::<PyDict>()?)
+}
+
+/// The fields of [`Evaluation`], its quantiles as `{q: value}`, and the line it shows (`shown`).
 pub fn evaluation<'py>(py: Python<'py>, e: &Evaluation) -> PyResult<Bound<'py, PyDict>> {
     let quantiles = PyDict::new(py);
     for &(q, v) in &e.quantiles {
         quantiles.set_item(q, v)?;
     }
-    let d = PyDict::new(py);
-    d.set_item("episodes", e.episodes)?;
-    for (name, x) in [("mean", e.mean), ("std_error", e.std_error), ("std", e.std), ("min", e.min), ("max", e.max)] {
-        d.set_item(name, x)?;
-    }
+    let d = fields(py, e)?;
     d.set_item("quantiles", quantiles)?;
     d.set_item("shown", progress::evaluation(e))?;
     Ok(d)
@@ -42,13 +48,9 @@ pub fn rollout(py: Python<'_>, r: Rollout) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
-/// `{value, steps, tail_bound}`.
+/// The fields of [`ExactValue`].
 pub fn exact_value<'py>(py: Python<'py>, v: &ExactValue) -> PyResult<Bound<'py, PyDict>> {
-    let d = PyDict::new(py);
-    d.set_item("value", v.value)?;
-    d.set_item("steps", v.steps)?;
-    d.set_item("tail_bound", v.tail_bound)?;
-    Ok(d)
+    fields(py, v)
 }
 
 /// `{from_start, continuing, reference, shown}`, each evaluation as [`evaluation`] makes it.

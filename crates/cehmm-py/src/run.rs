@@ -193,13 +193,9 @@ pub fn run<'py>(
         |w, options| (optimiser.run)(w, &settings, options),
         |(o, _)| o.checkpoint_error.as_deref(),
     )?;
-    let result = PyDict::new(py);
+    let result = crate::results::fields(py, &outcome.ending())?;
     result.set_item("history", columns(py, &outcome.history)?)?;
     result.set_item("policy", PyPolicy { file })?;
     result.set_item("evaluation", crate::results::evaluation(py, &outcome.evaluation)?)?;
-    result.set_item("stop_reason", outcome.stop.as_str())?;
-    result.set_item("seconds", outcome.seconds)?;
-    result.set_item("env_steps", outcome.env_steps)?;
-    result.set_item("eval_env_steps", outcome.eval_env_steps)?;
     Ok(result)
 }

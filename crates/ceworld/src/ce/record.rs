@@ -2,7 +2,7 @@
 //! outcome.
 
 use serde::{Deserialize, Serialize};
-use serde_json::json;
+use serde_json::{Map, Value, json};
 
 use crate::ce::config::CeConfig;
 use crate::ce::stopping::StopReason;
@@ -113,6 +113,61 @@ impl CeResult {
     pub fn interrupted(&self) -> bool {
         self.stop == StopReason::Interrupted
     }
+
+    /// What the result says beside its policies, history and evaluation, by the names the
+    /// bindings hand on.
+    pub fn summary(&self) -> CeSummary {
+        let ending = Ending {
+            stop_reason: self.stop,
+            seconds: self.seconds,
+            env_steps: self.env_steps,
+            eval_env_steps: self.eval_env_steps,
+        };
+        CeSummary { ending, best_iteration: self.best_iteration }
+    }
+}
+
+/// How a run ended, the same on every optimiser's result: the fields that `cehmm.OptimizeResult`,
+/// `cehmm.ControllerResult` and `cehmm.RunResult` share (the bindings hand this on by these
+/// names, and Python's `cehmm.results.Ended` declares them), and what a policy file's provenance
+/// says of the run ([`Ending::provenance`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Ending {
+    /// Why it stopped.
+    pub stop_reason: StopReason,
+    /// Wall seconds, every run and session together, the final evaluation included.
+    pub seconds: f64,
+    /// The world's steps learning took, every run and session together (0 on exact values).
+    pub env_steps: u64,
+    /// The world's steps of the final evaluation, counted apart (0 on exact values).
+    pub eval_env_steps: u64,
+}
+
+impl Ending {
+    /// Writes into a policy file's `provenance` how the run of `iterations` iterations ended:
+    /// `iterations`, `stop`, `interrupted`, `env_steps`, and the engine's `version`.
+    pub fn provenance(&self, iterations: usize, provenance: &mut Map<String, Value>) {
+        for (key, value) in [
+            ("iterations", json!(iterations)),
+            ("stop", json!(self.stop_reason.as_str())),
+            ("interrupted", json!(self.stop_reason == StopReason::Interrupted)),
+            ("env_steps", json!(self.env_steps)),
+            ("version", json!(crate::VERSION)),
+        ] {
+            provenance.insert(key.into(), value);
+        }
+    }
+}
+
+/// What episode CE's result says beside its policies, history and evaluation
+/// (`cehmm.OptimizeResult`'s other fields).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CeSummary {
+    /// How the run ended.
+    #[serde(flatten)]
+    pub ending: Ending,
+    /// Index of the best iteration.
+    pub best_iteration: usize,
 }
 
 impl CeResult {
@@ -125,19 +180,15 @@ impl CeResult {
         provenance.insert("alpha".into(), json!(config.smoothing));
         for (key, value) in [
             ("restart", json!(result.restart)),
-            ("iterations", json!(result.history.len())),
             ("best_iteration", json!(result.best_iteration)),
             ("best_iteration_mean", json!(best.mean)),
             ("mean_reward", json!(result.evaluation.mean)),
             ("evaluation_episodes", json!(result.evaluation.episodes)),
             ("evaluation_std_error", json!(result.evaluation.std_error)),
-            ("stop", json!(result.stop.as_str())),
-            ("interrupted", json!(result.interrupted())),
-            ("env_steps", json!(result.env_steps)),
-            ("version", json!(crate::VERSION)),
         ] {
             provenance.insert(key.into(), value);
         }
+        result.summary().ending.provenance(result.history.len(), &mut provenance);
         if !result.restart_scores.is_empty() {
             provenance.insert("restart_scores".into(), json!(result.restart_scores));
         }

@@ -13,7 +13,7 @@ use serde_json::json;
 
 use crate::ce::budget::{Budget, Metered};
 use crate::ce::iterations::{Ended, Iterations, Watch, iterate_run};
-use crate::ce::record::IterationRecord;
+use crate::ce::record::{Ending, IterationRecord};
 use crate::ce::resume::{Checkpointing, Clock, Resumable, Saver};
 use crate::ce::runs::{Runs, over_runs};
 use crate::ce::stopping::{Observed, StopReason, StopRules};
@@ -150,23 +150,30 @@ pub struct SteppedOutcome {
 }
 
 impl SteppedOutcome {
+    /// How the run ended: what the result says beside its policy, history and evaluation, by the
+    /// names the bindings hand on.
+    pub fn ending(&self) -> Ending {
+        Ending {
+            stop_reason: self.stop,
+            seconds: self.seconds,
+            env_steps: self.env_steps,
+            eval_env_steps: self.eval_env_steps,
+        }
+    }
+
     /// The result as a policy file (model §6): the policy, the world, and the provenance (the
     /// settings of `config`, the method `name`, how the run went).
     pub fn to_file<C: Settings>(&self, world: &dyn Episodes, name: &str, config: &C) -> PolicyFile {
         let mut map = config.provenance();
         for (key, value) in [
             ("method", json!(name)),
-            ("iterations", json!(self.history.len())),
-            ("stop", json!(self.stop.as_str())),
-            ("interrupted", json!(self.stop == StopReason::Interrupted)),
-            ("env_steps", json!(self.env_steps)),
             ("evaluation_mean", json!(self.evaluation.mean)),
             ("evaluation_std_error", json!(self.evaluation.std_error)),
             ("evaluation_episodes", json!(self.evaluation.episodes)),
-            ("version", json!(crate::VERSION)),
         ] {
             map.insert(key.into(), value);
         }
+        self.ending().provenance(self.history.len(), &mut map);
         PolicyFile { policy: self.policy.clone(), world: world.description(), provenance: map.into() }
     }
 }

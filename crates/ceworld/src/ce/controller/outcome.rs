@@ -6,7 +6,7 @@ use serde_json::json;
 
 use crate::ce::controller::checkpoint::FinishedSearch;
 use crate::ce::controller::{ControllerConfig, ValueKind};
-use crate::ce::record::IterationRecord;
+use crate::ce::record::{Ending, IterationRecord};
 use crate::ce::stopping::StopReason;
 use crate::episodes::Episodes;
 use crate::evaluate::Evaluation;
@@ -86,7 +86,45 @@ pub struct ControllerOutcome {
     pub eval_env_steps: u64,
 }
 
+/// What the controller search's result says beside its policy, history and evaluation
+/// (`cehmm.ControllerResult`'s other fields).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ControllerSummary<'a> {
+    /// How the search ended.
+    #[serde(flatten)]
+    pub ending: Ending,
+    /// The best controller's value ([`ControllerOutcome::value`]).
+    pub value: f64,
+    /// How the controllers were valued: `"exact"` or `"sampled"`.
+    pub kind: &'static str,
+    /// The iteration that drew it, within its run.
+    pub best_iteration: usize,
+    /// The run that found it.
+    pub restart: usize,
+    /// The best value of each run, in order.
+    pub run_values: &'a [f64],
+}
+
 impl ControllerOutcome {
+    /// What the result says beside its policy, history and evaluation, by the names the
+    /// bindings hand on.
+    pub fn summary(&self) -> ControllerSummary<'_> {
+        let ending = Ending {
+            stop_reason: self.stop,
+            seconds: self.seconds,
+            env_steps: self.env_steps,
+            eval_env_steps: self.eval_env_steps,
+        };
+        ControllerSummary {
+            ending,
+            value: self.value,
+            kind: self.kind.as_str(),
+            best_iteration: self.best_iteration,
+            restart: self.restart,
+            run_values: &self.run_values,
+        }
+    }
+
     /// The outcome of a search's `runs` (those over, then the one cut, if any): run `best`'s
     /// controller, the search stopped for `stop`; its evaluation, seconds and steps left to the
     /// caller.
@@ -123,15 +161,11 @@ impl ControllerOutcome {
             ("value", json!(self.kind.as_str())),
             ("restart", json!(self.restart)),
             ("run_values", json!(self.run_values)),
-            ("iterations", json!(self.history.len())),
             ("best_iteration", json!(self.best_iteration)),
-            ("stop", json!(self.stop.as_str())),
-            ("interrupted", json!(self.stop == StopReason::Interrupted)),
-            ("env_steps", json!(self.env_steps)),
-            ("version", json!(crate::VERSION)),
         ] {
             map.insert(key.into(), value);
         }
+        self.summary().ending.provenance(self.history.len(), &mut map);
         match &self.evaluation {
             None => {
                 map.insert("exact_value".into(), json!(self.value));
