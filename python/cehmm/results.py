@@ -1,20 +1,17 @@
 """What evaluations give back: :class:`Evaluation`, :class:`ExactValue`, :class:`Rollout` and
 :class:`WindowEvaluation`, each made from the dict the engine returns (its fields, and the line
-its ``repr`` shows, which the engine writes: ``ceworld::progress``); and :class:`Ending`, the
-fields every optimiser's result shares.
+its ``repr`` shows, which the engine writes: ``ceworld::progress``).
 
 A result's fields are named twice: once in the engine's struct that the bindings hand on
-(``ceworld::ce::record::Ending``, ``CeSummary``, ``ControllerSummary``, ``Evaluation``,
-``ExactValue``, serialised by name), once in the class here that a user reads; the class is made
-from the dict by name, so a field one side lacks fails at once (a test runs each).
+(``Evaluation``, ``ExactValue``, serialised by name), once in the class here that a user reads;
+the class is made from the dict by name, so a field one side lacks fails at once.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -182,46 +179,6 @@ class WindowEvaluation:
 
     def __repr__(self) -> str:
         return f"WindowEvaluation({self.shown})"
-
-
-_Result = TypeVar("_Result", bound="Ending")
-
-
-@dataclass(frozen=True, eq=False)
-class Ending:
-    """How an optimiser's run ended: the fields that :class:`cehmm.OptimizeResult`,
-    :class:`cehmm.ControllerResult` and :class:`cehmm.RunResult` share (the engine's
-    ``ceworld::ce::record::Ending``).
-
-    Attributes:
-        stop_reason: why it stopped: ``"patience"``, ``"max_iterations"``, ``"time_limit"``,
-            ``"max_env_steps"``, ``"target"``, ``"callback"`` (``callback=`` returned ``False``)
-            or ``"interrupted"`` (Ctrl-C).
-        seconds: wall time, every run and session together, the final evaluation included.
-        env_steps: the world's steps learning took, every run and session together (0 on exact
-            values).
-        eval_env_steps: the world's steps of the final evaluation, counted apart.
-    """
-
-    stop_reason: str
-    seconds: float
-    env_steps: int
-    eval_env_steps: int
-
-    @property
-    def interrupted(self) -> bool:
-        """Whether Ctrl-C (or an exception in the callback) stopped it."""
-        return self.stop_reason == "interrupted"
-
-    @classmethod
-    def _from_core(cls: type[_Result], raw: Mapping[str, Any]) -> _Result:
-        """The result of the engine's dict, field by field: its policies as :class:`cehmm.Policy`,
-        its evaluation as :class:`Evaluation`."""
-        from .policy import Policy
-
-        translated = {key: Policy(raw[key]) for key in ("policy", "last_policy") if key in raw}
-        found = raw.get("evaluation")
-        return cls(**{**raw, **translated, "evaluation": None if found is None else evaluation(found)})
 
 
 def evaluation(raw: dict[str, Any]) -> Evaluation:

@@ -14,11 +14,12 @@ from . import _core
 from ._driven import driven
 from .backend import Backend
 from .callbacks import CallbackLike
+from .ending import Ending
 from .optimizer import CE_DEFAULTS
 from .outside import Score
 from .policy import Policy
 from .ray_backend import sampled_world
-from .results import Ending, Evaluation
+from .results import Evaluation
 from .world import core_world
 
 #: Every optimiser given by its step: name -> its settings with their defaults.

@@ -129,7 +129,7 @@ impl CeResult {
 
 /// How a run ended, the same on every optimiser's result: the fields that `cehmm.OptimizeResult`,
 /// `cehmm.ControllerResult` and `cehmm.RunResult` share (the bindings hand this on by these
-/// names, and Python's `cehmm.results.Ended` declares them), and what a policy file's provenance
+/// names, and Python's `cehmm.ending.Ending` declares them), and what a policy file's provenance
 /// says of the run ([`Ending::provenance`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Ending {
