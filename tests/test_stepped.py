@@ -74,3 +74,19 @@ def test_the_command_line_runs_it_by_name(tmp_path: Path) -> None:
     assert len((tmp_path / "h.jsonl").read_text().splitlines()) == 4
     bad = cli("--pomdp", str(TIGER), "--set", "nodes=0", "--out", "other.json")
     assert bad.returncode == 2 and "invalid nodes: 0" in bad.stderr
+
+
+def test_the_search_of_memories_on_the_model_of_every_step_learns_a_latch_within_its_budget() -> None:
+    # Issue 47: the T-maze's cue held through a corridor of 4, learnt from 20,000 steps of the
+    # world (every step serving every memory ranked on the model), its value the optimum.
+    from cehmm.memory_tasks import TMaze
+
+    maze = TMaze(corridor=4)
+    result = cehmm.run("model-search", maze, max_env_steps=20_000, memories=100, rounds=5, seed=0, progress=False)
+    assert result.stop_reason in ("max_env_steps", "patience")
+    assert 0 < result.env_steps <= 20_000 + 16 * 4 * maze.horizon
+    assert result.evaluation.mean == pytest.approx(1.0)
+    assert result.policy.provenance["method"] == "model-search"
+    # A world run by the engine does not give its steps' rewards back yet: refused, naming why.
+    with pytest.raises(cehmm.InvalidArgumentError, match="sum of its steps' rewards, or one run by the engine"):
+        cehmm.run("model-search", cehmm.PomdpWorld(TIGER, horizon=20), max_iterations=1, progress=False)

@@ -256,7 +256,8 @@ impl Optimiser {
 
 /// Every optimiser given by its step. Adding one: its file (config, state, [`Stepped`] impl)
 /// and one line here.
-pub const OPTIMISERS: &[Optimiser] = &[Optimiser::of::<RandomSearch>()];
+pub const OPTIMISERS: &[Optimiser] =
+    &[Optimiser::of::<RandomSearch>(), Optimiser::of::<crate::ce::controller::model_search::ModelSearch>()];
 
 /// The optimiser `name`, or an error listing those there are.
 pub fn optimiser(name: &str) -> Result<&'static Optimiser> {

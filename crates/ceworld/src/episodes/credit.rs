@@ -5,6 +5,7 @@
 //! decision pays in that row, from every step of every controller's episodes rather than from
 //! a ranking of whole controllers.
 
+use crate::episodes::trace::Traces;
 use crate::policy::controller::Controller;
 
 /// The credit of the decision rows of a set of controllers (all of one shape): for controller
@@ -18,12 +19,20 @@ pub struct StepCredit {
     pub visits: Vec<u32>,
     /// Summed value still to come per (controller, row).
     pub sums: Vec<f64>,
+    /// Where kept, every episode's steps ([`Traces`]): what a learner of memory from every step
+    /// asks for ([`StepCredit::traced`]).
+    pub traces: Option<Traces>,
 }
 
 impl StepCredit {
     /// No credit yet for `controllers` controllers of `rows` decision rows.
     pub fn new(controllers: usize, rows: usize) -> StepCredit {
-        StepCredit { rows, visits: vec![0; controllers * rows], sums: vec![0.0; controllers * rows] }
+        StepCredit { rows, visits: vec![0; controllers * rows], sums: vec![0.0; controllers * rows], traces: None }
+    }
+
+    /// [`StepCredit::new`], keeping every episode's steps too.
+    pub fn traced(controllers: usize, rows: usize) -> StepCredit {
+        StepCredit { traces: Some(Traces::default()), ..StepCredit::new(controllers, rows) }
     }
 
     /// The decision rows of `c` ([`Controller::decisions`]).
@@ -39,10 +48,14 @@ impl StepCredit {
         index: usize,
         c: &Controller,
         n_obs: usize,
-        steps: impl Iterator<Item = (usize, f64)>,
+        steps: impl Iterator<Item = (usize, f64)> + Clone,
         gamma: f64,
         value: f64,
     ) {
+        if let Some(traces) = self.traces.as_mut() {
+            traces.gamma = gamma;
+            traces.add(c, n_obs, steps.clone());
+        }
         let base = index * self.rows;
         let (mut node, mut before, mut factor) = (0u32, 0.0, 1.0);
         for (y, r) in steps {
@@ -98,6 +111,9 @@ impl StepCredit {
         debug_assert_eq!(self.rows, other.rows);
         self.visits.extend(other.visits);
         self.sums.extend(other.sums);
+        if let (Some(traces), Some(more)) = (self.traces.as_mut(), other.traces) {
+            traces.append(more);
+        }
     }
 
     /// For each decision row, the decision whose steps had the highest mean credit over all
@@ -157,18 +173,23 @@ mod tests {
     fn the_best_decision_of_a_row_has_the_highest_mean_over_every_controller() {
         // Three controllers of two rows, three decisions: row 0 decided 1, 1, 2 (means 2 and
         // 3, so 2); row 1 decided 0, 0, 0 (1 visit), and never visited by the third.
-        let credit = StepCredit { rows: 2, visits: vec![2, 1, 2, 0, 1, 0], sums: vec![4.0, 1.0, 4.0, 0.0, 3.0, 0.0] };
+        let credit = StepCredit {
+            rows: 2,
+            visits: vec![2, 1, 2, 0, 1, 0],
+            sums: vec![4.0, 1.0, 4.0, 0.0, 3.0, 0.0],
+            traces: None,
+        };
         let decisions: [&[u32]; 3] = [&[1, 0], &[1, 0], &[2, 0]];
         assert_eq!(credit.best(decisions.into_iter().enumerate(), 3), vec![Some(2), Some(0)]);
         let mut two = StepCredit::new(1, 2);
-        two.append(StepCredit { rows: 2, visits: vec![0, 0], sums: vec![0.0, 0.0] });
+        two.append(StepCredit { rows: 2, visits: vec![0, 0], sums: vec![0.0, 0.0], traces: None });
         assert_eq!(two.best([&[0, 1][..], &[1, 1]].into_iter().enumerate(), 2), vec![None, None]);
         assert_eq!(two.visits.len(), 4);
     }
 
     #[test]
     fn values_and_credit_travel_as_blocks_and_come_back_the_same() {
-        let credit = StepCredit { rows: 2, visits: vec![1, 2, 3, 4], sums: vec![0.5, -1.0, 2.5, 0.0] };
+        let credit = StepCredit { rows: 2, visits: vec![1, 2, 3, 4], sums: vec![0.5, -1.0, 2.5, 0.0], traces: None };
         let values = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
         let blocks = credit.to_blocks(true, &values, 3);
         assert_eq!(blocks.len(), 2 * StepCredit::block(3, 2));

@@ -7,6 +7,7 @@ pub mod credit;
 pub mod outside;
 mod place;
 pub mod run;
+pub mod trace;
 
 use rayon::prelude::*;
 use serde_json::Value;

@@ -53,7 +53,7 @@ pub struct Recorded<'a> {
 
 impl Recorded<'_> {
     /// The observations `y_1..y_n`.
-    pub fn observations(&self) -> impl Iterator<Item = usize> + '_ {
+    pub fn observations(&self) -> impl Iterator<Item = usize> + Clone + '_ {
         self.record.chunks_exact(self.width).map(|s| usize::from(s[0]))
     }
 

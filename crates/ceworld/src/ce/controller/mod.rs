@@ -15,6 +15,8 @@ pub mod checkpoint;
 pub mod config;
 mod laws;
 mod memory;
+pub mod model;
+pub mod model_search;
 mod outcome;
 mod selection;
 mod stage;

@@ -1,0 +1,126 @@
+//! The search of memories on the model of every step (issue 47, `model-search`): it learns a
+//! task that needs memory within a small budget of the world's steps, the same whatever the
+//! thread count, resumes from its checkpoint bit for bit, and refuses a world whose value is not
+//! the sum of its steps' rewards, naming why.
+
+use ceworld::ce::budget::Budget;
+use ceworld::ce::controller::model_search::{ModelSearch, ModelSearchConfig};
+use ceworld::ce::stepped::run_stepped;
+use ceworld::episodes::Shape;
+use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
+use ceworld::{Checkpointing, Error, Flow, StopReason};
+use serde_json::{Value, json};
+
+#[path = "common/temp.rs"]
+mod temp;
+
+/// Repeat the first card: the first observation is a card of `CARDS` kinds, every later one a
+/// blank (`CARDS`); each step after the first pays 1 when its decision is the first card. A
+/// memoryless policy pays `(HORIZON - 1) / CARDS` on average, the best `HORIZON - 1`.
+struct RepeatFirst {
+    first: Vec<u64>,
+    t: usize,
+    /// Not additive: the value is a score of its own.
+    scored: bool,
+}
+
+const CARDS: usize = 3;
+const HORIZON: usize = 6;
+
+fn mix(seed: u64, episode: usize) -> u64 {
+    let mut x = seed ^ (episode as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    x ^= x >> 31;
+    x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x ^= x >> 29;
+    x
+}
+
+impl BatchWorld for RepeatFirst {
+    fn shape(&self) -> Shape {
+        Shape { observations: CARDS + 1, decisions: CARDS, horizon: HORIZON }
+    }
+    fn description(&self) -> Value {
+        json!({"name": "outside", "class": "tests.RepeatFirst"})
+    }
+    fn max_batch(&self) -> usize {
+        64
+    }
+    fn reset(&mut self, seed: u64, observations: &mut [i64]) -> ceworld::Result<()> {
+        self.t = 0;
+        self.first = (0..observations.len()).map(|i| mix(seed, i) % CARDS as u64).collect();
+        for (y, &card) in observations.iter_mut().zip(&self.first) {
+            *y = card as i64;
+        }
+        Ok(())
+    }
+    fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
+        for (i, &d) in decisions.iter().enumerate() {
+            out.rewards[i] = f64::from(u8::from(self.t > 0 && d as u64 == self.first[i]));
+            out.observations[i] = CARDS as i64;
+        }
+        self.t += 1;
+        Ok(())
+    }
+    fn additive(&self) -> bool {
+        !self.scored
+    }
+    fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {
+        Ok(if self.scored {
+            episode.decisions().filter(|&d| d == 0).count() as f64
+        } else {
+            episode.rewards.iter().sum()
+        })
+    }
+}
+
+fn world(scored: bool) -> Lockstep<RepeatFirst> {
+    Lockstep::new(RepeatFirst { first: Vec::new(), t: 0, scored }).unwrap()
+}
+
+fn config(steps: u64, threads: usize) -> ModelSearchConfig {
+    ModelSearchConfig {
+        memories: 100,
+        rounds: 5,
+        budget: Budget::steps(steps),
+        threads: Some(threads),
+        eval_episodes: 200,
+        ..ModelSearchConfig::default()
+    }
+}
+
+#[test]
+fn a_memory_is_learnt_from_every_step_within_a_small_budget() {
+    let outcome = run_stepped::<ModelSearch>(&world(false), &config(6000, 1), None, |_| Flow::Continue).unwrap();
+    // The latch and its decisions: every step after the first pays.
+    assert_eq!(outcome.evaluation.mean, (HORIZON - 1) as f64, "{:?}", outcome.history);
+    assert_eq!(outcome.stop, StopReason::MaxEnvSteps);
+    // Cut at a group of episodes: past the budget by less than one iteration's exploration.
+    assert!(outcome.env_steps >= 6000 && outcome.env_steps < 6000 + 16 * 4 * HORIZON as u64, "{}", outcome.env_steps);
+    // The same search whatever the thread count.
+    let two = run_stepped::<ModelSearch>(&world(false), &config(6000, 2), None, |_| Flow::Continue).unwrap();
+    assert_eq!((two.policy, two.env_steps), (outcome.policy, outcome.env_steps));
+}
+
+#[test]
+fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
+    let path = temp::TempPath::new("ceworld-model-search", "search.ckpt");
+    let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
+    let w = world(false);
+    let iterations =
+        |n: usize| ModelSearchConfig { max_iterations: Some(n), budget: Budget::default(), ..config(0, 1) };
+    let whole = run_stepped::<ModelSearch>(&w, &iterations(4), None, |_| Flow::Continue).unwrap();
+    run_stepped::<ModelSearch>(&w, &iterations(2), Some(&checkpointing), |_| Flow::Continue).unwrap();
+    let rest = run_stepped::<ModelSearch>(&w, &iterations(4), Some(&checkpointing), |_| Flow::Continue).unwrap();
+    assert_eq!(rest.policy, whole.policy);
+    let strip = |h: &[ceworld::IterationRecord]| {
+        h.iter().map(|r| (r.mean, r.best, r.elite_mean, r.successful, r.env_steps)).collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&rest.history), strip(&whole.history));
+}
+
+#[test]
+fn a_world_whose_value_is_not_the_sum_of_its_rewards_is_refused() {
+    let e = run_stepped::<ModelSearch>(&world(true), &config(2000, 1), None, |_| Flow::Continue).unwrap_err();
+    assert!(matches!(e, Error::InvalidArgument { ref name, .. } if name == "world"), "{e}");
+    assert!(e.to_string().contains("sum of its steps' rewards"), "{e}");
+}
