@@ -9,7 +9,7 @@ mod temp;
 use ceworld::ce::budget::{Budget, CUT_EPISODES};
 use ceworld::ce::controller::{ValueKind, Valued, optimize_controller};
 use ceworld::ce::random_search::{RandomSearch, RandomSearchConfig};
-use ceworld::ce::stepped::run_stepped;
+use ceworld::ce::stepped::{Rules, run_stepped};
 use ceworld::rng::EngineRng;
 use ceworld::{
     CeConfig, CeResult, Checkpointing, ControllerConfig, Flow, PomdpWorld, StopReason, TargetTracking, TrackingParams,
@@ -185,9 +185,7 @@ fn a_stepped_optimiser_stops_on_its_budget_and_cuts_its_iteration() {
         nodes: 2,
         samples: 300,
         episodes: 10,
-        eval_episodes: 50,
-        budget: Budget::steps(300 * 10 * 20 + 1),
-        ..RandomSearchConfig::default()
+        rules: Rules { eval_episodes: 50, budget: Budget::steps(300 * 10 * 20 + 1), ..Rules::default() },
     };
     let out = run_stepped::<RandomSearch>(&w, &config, None, |_| Flow::Continue).unwrap();
     assert_eq!(out.stop, StopReason::MaxEnvSteps);

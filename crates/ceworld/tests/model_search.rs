@@ -5,7 +5,7 @@
 
 use ceworld::ce::budget::Budget;
 use ceworld::ce::controller::model_search::{ModelSearch, ModelSearchConfig};
-use ceworld::ce::stepped::run_stepped;
+use ceworld::ce::stepped::{Rules, run_stepped};
 use ceworld::episodes::Shape;
 use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
 use ceworld::{Checkpointing, Error, Flow, StopReason};
@@ -81,9 +81,7 @@ fn config(steps: u64, threads: usize) -> ModelSearchConfig {
     ModelSearchConfig {
         memories: 100,
         rounds: 5,
-        budget: Budget::steps(steps),
-        threads: Some(threads),
-        eval_episodes: 200,
+        rules: Rules { budget: Budget::steps(steps), threads: Some(threads), eval_episodes: 200, ..Rules::default() },
         ..ModelSearchConfig::default()
     }
 }
@@ -106,8 +104,10 @@ fn a_search_resumes_from_its_checkpoint_bit_for_bit() {
     let path = temp::TempPath::new("ceworld-model-search", "search.ckpt");
     let checkpointing = Checkpointing { path: path.to_path_buf(), every: 1e9, resume: true, outputs: Vec::new() };
     let w = world(false);
-    let iterations =
-        |n: usize| ModelSearchConfig { max_iterations: Some(n), budget: Budget::default(), ..config(0, 1) };
+    let iterations = |n: usize| {
+        let rules = Rules { max_iterations: Some(n), budget: Budget::default(), ..config(0, 1).rules };
+        ModelSearchConfig { rules, ..config(0, 1) }
+    };
     let whole = run_stepped::<ModelSearch>(&w, &iterations(4), None, |_| Flow::Continue).unwrap();
     run_stepped::<ModelSearch>(&w, &iterations(2), Some(&checkpointing), |_| Flow::Continue).unwrap();
     let rest = run_stepped::<ModelSearch>(&w, &iterations(4), Some(&checkpointing), |_| Flow::Continue).unwrap();

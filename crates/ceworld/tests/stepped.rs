@@ -8,7 +8,7 @@ mod temp;
 
 use ceworld::ce::budget::Budget;
 use ceworld::ce::random_search::{RandomSearch, RandomSearchConfig};
-use ceworld::ce::stepped::run_stepped;
+use ceworld::ce::stepped::{Rules, run_stepped};
 use ceworld::run::{OPTIMISERS, RunOptions, optimiser};
 use ceworld::settings::{Given, Named};
 use ceworld::{Checkpointing, Error, Flow, PomdpWorld, StopReason};
@@ -23,9 +23,7 @@ fn config(max_iterations: usize) -> RandomSearchConfig {
         nodes: 3,
         samples: 40,
         episodes: 20,
-        max_iterations: Some(max_iterations),
-        eval_episodes: 500,
-        ..Default::default()
+        rules: Rules { max_iterations: Some(max_iterations), eval_episodes: 500, ..Rules::default() },
     }
 }
 
@@ -73,7 +71,7 @@ fn the_best_is_kept_and_the_history_says_when_it_improved() {
         assert!(r.mean <= r.elite_threshold);
     }
     // Patience: a run stops after that many iterations without a better controller.
-    let c = RandomSearchConfig { patience: 2, max_iterations: None, ..config(0) };
+    let c = RandomSearchConfig { rules: Rules { patience: 2, max_iterations: None, ..config(0).rules }, ..config(0) };
     let outcome = run_stepped::<RandomSearch>(&tiger(), &c, None, |_| Flow::Continue).unwrap();
     assert_eq!(outcome.stop, StopReason::Patience);
     assert!(outcome.history.iter().rev().take(2).all(|r| !r.successful));
@@ -90,7 +88,7 @@ fn the_best_is_kept_and_the_history_says_when_it_improved() {
 #[test]
 fn the_result_does_not_depend_on_the_threads() {
     let run = |threads| {
-        let c = RandomSearchConfig { threads: Some(threads), ..config(4) };
+        let c = RandomSearchConfig { rules: Rules { threads: Some(threads), ..config(4).rules }, ..config(4) };
         run_stepped::<RandomSearch>(&tiger(), &c, None, |_| Flow::Continue).unwrap()
     };
     let (one, two) = (run(1), run(2));
@@ -120,7 +118,8 @@ fn a_run_resumes_from_its_checkpoint_bit_for_bit() {
     let path = temp::TempPath::new("ceworld-stepped", "budget.ckpt");
     let checkpointing = Checkpointing { path: path.to_path_buf(), ..checkpointing };
     run_stepped::<RandomSearch>(&world, &config(4), Some(&checkpointing), |_| Flow::Continue).unwrap();
-    let budget = RandomSearchConfig { max_iterations: None, budget: Budget::steps(steps), ..config(9) };
+    let rules = Rules { max_iterations: None, budget: Budget::steps(steps), ..config(9).rules };
+    let budget = RandomSearchConfig { rules, ..config(9) };
     let spent = run_stepped::<RandomSearch>(&world, &budget, Some(&checkpointing), |_| Flow::Continue).unwrap();
     assert_eq!((spent.stop, spent.env_steps, spent.history.len()), (StopReason::MaxEnvSteps, steps, 7));
     // Other settings are refused, naming the setting.

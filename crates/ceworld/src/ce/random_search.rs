@@ -7,7 +7,6 @@
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
-use crate::ce::budget::Budget;
 use crate::ce::record::IterationRecord;
 use crate::ce::stepped::{Rules, Stepped};
 use crate::episodes::{Episodes, Streams};
@@ -26,34 +25,14 @@ pub struct RandomSearchConfig {
     pub samples: usize,
     /// Episodes each controller is valued on, per iteration.
     pub episodes: usize,
-    /// Stop after this many iterations in a row without a better controller.
-    pub patience: usize,
-    /// Stop after this many iterations.
-    pub max_iterations: Option<usize>,
-    /// The budgets in seconds and in the world's steps ([`Budget`]).
+    /// Stop rules, budgets, seed, threads and final evaluation ([`Rules`]).
     #[serde(flatten)]
-    pub budget: Budget,
-    /// Seed of every random stream.
-    pub seed: u64,
-    /// Worker threads (default: one per core).
-    pub threads: Option<usize>,
-    /// Fresh episodes the best controller is evaluated on.
-    pub eval_episodes: usize,
+    pub rules: Rules,
 }
 
 impl Default for RandomSearchConfig {
     fn default() -> Self {
-        RandomSearchConfig {
-            nodes: 4,
-            samples: 200,
-            episodes: 100,
-            patience: 20,
-            max_iterations: None,
-            budget: Budget::default(),
-            seed: 0,
-            threads: None,
-            eval_episodes: 10_000,
-        }
+        RandomSearchConfig { nodes: 4, samples: 200, episodes: 100, rules: Rules::default() }
     }
 }
 
@@ -63,12 +42,7 @@ impl Settings for RandomSearchConfig {
             "nodes" => self.nodes = s.count()?,
             "samples" => self.samples = s.count()?,
             "episodes" => self.episodes = s.count()?,
-            "patience" => self.patience = s.count()?,
-            "max_iterations" => self.max_iterations = s.optional_count()?,
-            name if Budget::NAMES.contains(&name) => self.budget.set(s)?,
-            "seed" => self.seed = s.seed()?,
-            "threads" => self.threads = s.optional_count()?,
-            "eval_episodes" => self.eval_episodes = s.count()?,
+            name if Rules::owns(name) => self.rules.set(s)?,
             other => return Err(self.unknown(other)),
         }
         Ok(())
@@ -88,15 +62,11 @@ impl Stepped for RandomSearch {
     type Config = RandomSearchConfig;
 
     fn rules(c: &RandomSearchConfig) -> Rules {
-        Rules {
-            patience: c.patience,
-            max_iterations: c.max_iterations,
-            budget: c.budget,
-            seed: c.seed,
-            threads: c.threads,
-            eval_episodes: c.eval_episodes,
-            episodes: c.samples.saturating_mul(c.episodes),
-        }
+        c.rules
+    }
+
+    fn episodes(c: &RandomSearchConfig) -> usize {
+        c.samples.saturating_mul(c.episodes)
     }
 
     fn validate(c: &RandomSearchConfig) -> Result<()> {
@@ -105,7 +75,7 @@ impl Stepped for RandomSearch {
                 return Err(Error::invalid(name, "0 (expected at least 1)"));
             }
         }
-        c.budget.validate()
+        c.rules.budget.validate()
     }
 
     fn start(world: &dyn Episodes, c: &RandomSearchConfig) -> Result<RandomSearch> {
@@ -124,7 +94,7 @@ impl Stepped for RandomSearch {
         spent: &dyn Fn() -> bool,
     ) -> Result<IterationRecord> {
         let shape = world.shape();
-        let mut rng = stream(c.seed, Purpose::Init, iteration as u64, 0);
+        let mut rng = stream(c.rules.seed, Purpose::Init, iteration as u64, 0);
         let controllers: Vec<Controller> = (0..c.samples)
             .map(|_| {
                 Controller::moore(
@@ -133,7 +103,7 @@ impl Stepped for RandomSearch {
                 )
             })
             .collect();
-        let streams = Streams { seed: c.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
+        let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         // In groups of whole batches of episodes, so that a spent budget cuts the iteration
         // between two (the first always counts): its best is of the controllers valued.
         let group = crate::ce::controller::group_size(world.batch(), c.episodes);

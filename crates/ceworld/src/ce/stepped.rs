@@ -23,16 +23,19 @@ use crate::error::Result;
 use crate::evaluate::{Evaluation, final_evaluation};
 use crate::policy::Hhmm;
 use crate::policy::file::PolicyFile;
-use crate::settings::Settings;
+use crate::settings::{Setting, Settings};
 
-/// The stop rules and the run settings every stepped optimiser has, read from its config.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The settings every stepped optimiser has: its stop rules, budgets, seed, threads and final
+/// evaluation, flattened into its config (so that their names, flags and checkpoint keys are the
+/// config's own) and read there by [`Rules::set`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Rules {
     /// Stop after this many iterations in a row without success.
     pub patience: usize,
     /// Stop after this many iterations.
     pub max_iterations: Option<usize>,
     /// The budgets in seconds and in the world's steps ([`Budget`]).
+    #[serde(flatten)]
     pub budget: Budget,
     /// Seed of every random stream (the evaluation's too).
     pub seed: u64,
@@ -40,9 +43,40 @@ pub struct Rules {
     pub threads: Option<usize>,
     /// Fresh episodes the result is evaluated on.
     pub eval_episodes: usize,
-    /// About how many episodes an iteration runs: the final evaluation's time is foreseen from
-    /// them, and kept at the end of the time limit.
-    pub episodes: usize,
+}
+
+impl Default for Rules {
+    fn default() -> Self {
+        Rules {
+            patience: 20,
+            max_iterations: None,
+            budget: Budget::default(),
+            seed: 0,
+            threads: None,
+            eval_episodes: 10_000,
+        }
+    }
+}
+
+impl Rules {
+    /// Whether `name` is one of these settings.
+    pub fn owns(name: &str) -> bool {
+        ["patience", "max_iterations", "seed", "threads", "eval_episodes"].contains(&name)
+            || Budget::NAMES.contains(&name)
+    }
+
+    /// Sets `s`, one of these settings ([`Rules::owns`]).
+    pub fn set(&mut self, s: &Setting<'_>) -> Result<()> {
+        match s.name {
+            "patience" => self.patience = s.count()?,
+            "max_iterations" => self.max_iterations = s.optional_count()?,
+            "seed" => self.seed = s.seed()?,
+            "threads" => self.threads = s.optional_count()?,
+            "eval_episodes" => self.eval_episodes = s.count()?,
+            _ => self.budget.set(s)?,
+        }
+        Ok(())
+    }
 }
 
 /// An optimiser as its state between two iterations and its iteration step. Registering it in
@@ -58,6 +92,9 @@ pub trait Stepped: Clone + Serialize + DeserializeOwned + Send + Sync {
 
     /// The stop rules and run settings of `config`.
     fn rules(config: &Self::Config) -> Rules;
+    /// About how many episodes an iteration runs: the final evaluation's time is foreseen from
+    /// them, and kept at the end of the time limit.
+    fn episodes(config: &Self::Config) -> usize;
     /// Refuses settings out of their domain, naming them.
     fn validate(config: &Self::Config) -> Result<()>;
     /// The state before the first iteration.
@@ -337,6 +374,6 @@ impl<O: Stepped> Iterations for SteppedIterations<'_, '_, O> {
     }
 
     fn closing(&self, _: &IterationRecord) -> Option<(usize, usize)> {
-        Some((self.rules.episodes, self.rules.eval_episodes))
+        Some((O::episodes(self.config), self.rules.eval_episodes))
     }
 }

@@ -19,7 +19,6 @@ use serde::{Deserialize, Serialize};
 use super::config::Template;
 use super::laws::Laws;
 use super::model::{AgentModel, Plan};
-use crate::ce::budget::Budget;
 use crate::ce::record::IterationRecord;
 use crate::ce::stepped::{Rules, Stepped};
 use crate::episodes::credit::StepCredit;
@@ -65,19 +64,9 @@ pub struct ModelSearchConfig {
     pub select_episodes: usize,
     /// Steps kept for the model (the latest).
     pub memory_steps: usize,
-    /// Stop after this many iterations in a row without a better controller.
-    pub patience: usize,
-    /// Stop after this many iterations.
-    pub max_iterations: Option<usize>,
-    /// The budgets in seconds and in the world's steps ([`Budget`]).
+    /// Stop rules, budgets, seed, threads and final evaluation ([`Rules`]).
     #[serde(flatten)]
-    pub budget: Budget,
-    /// Seed of every random stream.
-    pub seed: u64,
-    /// Worker threads (default: one per core).
-    pub threads: Option<usize>,
-    /// Fresh episodes the best controller is evaluated on.
-    pub eval_episodes: usize,
+    pub rules: Rules,
 }
 
 impl Default for ModelSearchConfig {
@@ -98,12 +87,7 @@ impl Default for ModelSearchConfig {
             confirm: 2,
             select_episodes: 20,
             memory_steps: 200_000,
-            patience: 20,
-            max_iterations: None,
-            budget: Budget::default(),
-            seed: 0,
-            threads: None,
-            eval_episodes: 10_000,
+            rules: Rules::default(),
         }
     }
 }
@@ -126,12 +110,7 @@ impl Settings for ModelSearchConfig {
             "confirm" => self.confirm = s.count()?,
             "select_episodes" => self.select_episodes = s.count()?,
             "memory_steps" => self.memory_steps = s.count()?,
-            "patience" => self.patience = s.count()?,
-            "max_iterations" => self.max_iterations = s.optional_count()?,
-            name if Budget::NAMES.contains(&name) => self.budget.set(s)?,
-            "seed" => self.seed = s.seed()?,
-            "threads" => self.threads = s.optional_count()?,
-            "eval_episodes" => self.eval_episodes = s.count()?,
+            name if Rules::owns(name) => self.rules.set(s)?,
             other => return Err(self.unknown(other)),
         }
         Ok(())
@@ -157,15 +136,11 @@ impl Stepped for ModelSearch {
     type Config = ModelSearchConfig;
 
     fn rules(c: &ModelSearchConfig) -> Rules {
-        Rules {
-            patience: c.patience,
-            max_iterations: c.max_iterations,
-            budget: c.budget,
-            seed: c.seed,
-            threads: c.threads,
-            eval_episodes: c.eval_episodes,
-            episodes: c.samples.saturating_mul(c.episodes) + c.confirm.saturating_mul(c.select_episodes),
-        }
+        c.rules
+    }
+
+    fn episodes(c: &ModelSearchConfig) -> usize {
+        c.samples.saturating_mul(c.episodes) + c.confirm.saturating_mul(c.select_episodes)
     }
 
     fn validate(c: &ModelSearchConfig) -> Result<()> {
@@ -203,7 +178,7 @@ impl Stepped for ModelSearch {
         if !(c.pessimism.is_finite() && c.pessimism >= 0.0) {
             return Err(Error::invalid("pessimism", format!("{} (expected a number >= 0)", c.pessimism)));
         }
-        c.budget.validate()
+        c.rules.budget.validate()
     }
 
     fn start(world: &dyn Episodes, c: &ModelSearchConfig) -> Result<ModelSearch> {
@@ -230,7 +205,7 @@ impl Stepped for ModelSearch {
         iteration: usize,
         spent: &dyn Fn() -> bool,
     ) -> Result<IterationRecord> {
-        let mut rng = stream(c.seed, Purpose::Init, iteration as u64, 0);
+        let mut rng = stream(c.rules.seed, Purpose::Init, iteration as u64, 0);
         let explored = self.explore(world, c, iteration, &mut rng, spent)?;
         let (plans, elite) = self.search(world, c, &mut rng);
         let successful = if self.best.is_none() || !spent() { self.confirm(world, c, &plans)? } else { false };
@@ -267,7 +242,7 @@ impl ModelSearch {
         let mut laws = self.laws.clone();
         laws.inject(c.explore);
         let explorers: Vec<Controller> = (0..c.samples).map(|_| laws.draw(rng)).collect();
-        let streams = Streams { seed: c.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
+        let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         let group = super::group_size(world.batch(), c.episodes);
         let rows = StepCredit::rows_of(&explorers[0]);
         let mut means = Vec::with_capacity(c.samples);
@@ -341,7 +316,7 @@ impl ModelSearch {
                 few.push(p.controller.clone());
             }
         }
-        let streams = Streams { seed: c.seed, purpose: Purpose::Select, iteration: 0 };
+        let streams = Streams { seed: c.rules.seed, purpose: Purpose::Select, iteration: 0 };
         let m = c.select_episodes;
         let mut values = vec![0.0; few.len() * m];
         world.run_controllers(&few, streams, m, &mut values)?;
