@@ -286,6 +286,9 @@ impl ModelSearch {
         let (y1, a, gamma) = (shape.observations, shape.decisions, self.gamma);
         let elite_size = ((c.rho * c.memories as f64).ceil() as usize).clamp(1, c.memories);
         let (mut plans, mut elite) = (Vec::new(), Vec::new());
+        // The search starts as wide as the explorers' laws: the data have grown since the last
+        // iteration's laws were fitted on fewer steps.
+        self.laws.inject(c.explore);
         for _ in 0..c.rounds {
             let memories: Vec<Controller> = (0..c.memories).map(|_| self.laws.draw(rng)).collect();
             let traces = &self.traces;
