@@ -47,16 +47,17 @@ impl Traces {
     /// length).
     pub fn keep_last(&mut self, steps: usize) {
         let n = self.obs.len();
-        let Some(first) = self.ends.iter().position(|&e| n - e <= steps) else { return };
-        // Episodes `first + 1..` fit; drop up to the end of episode `first`, unless none is left.
-        let (drop, kept_from) = if first + 1 < self.ends.len() { (self.ends[first], first + 1) } else { (0, 0) };
-        if drop == 0 {
+        if n <= steps || self.ends.is_empty() {
             return;
         }
+        let start = |k: usize| if k == 0 { 0 } else { self.ends[k - 1] };
+        let last = self.ends.len() - 1;
+        let k = (0..last).find(|&k| n - start(k) <= steps).unwrap_or(last);
+        let drop = start(k);
         self.obs.drain(..drop);
         self.dec.drain(..drop);
         self.rew.drain(..drop);
-        self.ends = self.ends[kept_from..].iter().map(|e| e - drop).collect();
+        self.ends = self.ends[k..].iter().map(|e| e - drop).collect();
     }
 
     /// `other`'s episodes after these.
