@@ -66,7 +66,7 @@ SHORTER: list[tuple[str, str, str]] = [
         "hours",
     ),
     ("--jobs 2 --time-limit 6", "--jobs 2 --time-limit 0.2 --quick", "an hour"),
-    ("--budget 60", "--budget 1 --tasks t-maze-10", "an hour"),
+    ("benchmarks.memory --jobs 2 ", "benchmarks.memory --quick --methods random model-search ", "hours"),
     ("benches/controller_speed.py ", "benches/controller_speed.py --iterations 1 --repeats 1 ", "a minute"),
 ]
 
