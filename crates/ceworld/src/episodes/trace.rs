@@ -1,4 +1,4 @@
-//! The steps of episodes kept whole (issue 47, memory from every step): each step's
+//! The steps of episodes kept whole (model §10, memory from every step): each step's
 //! observation, decision and reward, episode after episode, so that a learner may replay every
 //! step it has taken through any candidate memory, not only through the controller that took it.
 

@@ -1,4 +1,4 @@
-//! The empirical model of a candidate memory over every step kept (issue 47, memory from every
+//! The empirical model of a candidate memory over every step kept (model §10, memory from every
 //! step): the kept episodes replayed through the memory give its agent states (the node after
 //! each observation); counted, they give for each (node, decision) its visits, its mean reward
 //! and the law of the next observation, hence of the next node. Value iteration on that model

@@ -1,4 +1,4 @@
-//! Memory from every step (issue 47): a controller search on sampled worlds that keeps every
+//! Memory from every step (model §10): a controller search on sampled worlds that keeps every
 //! step it takes and ranks candidate memories on the model those steps give, instead of valuing
 //! each candidate on fresh episodes of its own.
 //!
