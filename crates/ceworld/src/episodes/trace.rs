@@ -79,25 +79,6 @@ impl Traces {
     pub fn episodes(&self) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
         std::iter::once(0).chain(self.ends.iter().copied()).zip(self.ends.iter().copied()).map(|(a, b)| a..b)
     }
-
-    /// The episodes' (observation, decision, reward) steps are consistent: as many of each,
-    /// episodes in order and covering them; what is wrong, if anything.
-    pub fn check(&self, n_obs: usize, n_actions: usize) -> Option<String> {
-        let n = self.obs.len();
-        if self.dec.len() != n || self.rew.len() != n {
-            return Some(format!("{n} observations, {} decisions and {} rewards", self.dec.len(), self.rew.len()));
-        }
-        if self.ends.windows(2).any(|w| w[0] > w[1]) || self.ends.last().is_some_and(|&e| e != n) {
-            return Some("episodes out of order or not covering the steps".into());
-        }
-        if let Some(y) = self.obs.iter().find(|&&y| y as usize >= n_obs) {
-            return Some(format!("observation {y} of {n_obs}"));
-        }
-        if let Some(d) = self.dec.iter().find(|&&d| d as usize >= n_actions) {
-            return Some(format!("decision {d} of {n_actions}"));
-        }
-        self.rew.iter().find(|r| !r.is_finite()).map(|r| format!("reward {r}"))
-    }
 }
 
 #[cfg(test)]
@@ -117,8 +98,6 @@ mod tests {
         assert_eq!(traces.dec, vec![1, 0, 1]);
         assert_eq!(traces.rew, vec![0.5, -1.0, 2.0]);
         assert_eq!(traces.episodes().collect::<Vec<_>>(), vec![0..2, 2..3]);
-        assert_eq!(traces.check(2, 2), None);
-        assert_eq!(traces.check(2, 1).as_deref(), Some("decision 1 of 1"));
         // The latest whole episodes of at most 1 step, then of 2: the last one alone, then both.
         let mut kept = traces.clone();
         kept.keep_last(2);

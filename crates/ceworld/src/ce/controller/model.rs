@@ -85,10 +85,10 @@ impl AgentModel {
             .iter()
             .map(|&v| if v == 0 { 0.0 } else { pessimism * self.spread / f64::from(v).sqrt() })
             .collect();
-        let mut value = vec![0.0; n];
+        let (mut value, mut fresh) = (vec![0.0; n], vec![0.0; n]);
         let mut act: Vec<u32> = fallback.to_vec();
         for _ in 0..horizon.max(1) {
-            let mut fresh = vec![0.0; n];
+            fresh.fill(0.0);
             for q in 0..n {
                 let mut best: Option<(f64, u32)> = None;
                 for d in 0..a {
@@ -111,7 +111,7 @@ impl AgentModel {
                     act[q] = d;
                 }
             }
-            value = fresh;
+            std::mem::swap(&mut value, &mut fresh);
         }
         let episodes: u32 = self.starts.iter().sum();
         let start = self.starts.iter().zip(&value).map(|(&s, &v)| f64::from(s) * v).sum::<f64>();

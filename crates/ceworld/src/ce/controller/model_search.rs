@@ -122,10 +122,8 @@ impl Settings for ModelSearchConfig {
 pub struct ModelSearch {
     /// The laws the memories (and the explorers) are drawn from.
     pub laws: Laws,
-    /// The latest steps taken.
+    /// The latest steps taken (with the world's discount).
     pub traces: Traces,
-    /// The world's discount (the steps' rewards summed so).
-    pub gamma: f64,
     /// The best controller so far, with its score on the selection episodes.
     pub best: Option<(Controller, f64)>,
 }
@@ -195,7 +193,7 @@ impl Stepped for ModelSearch {
             c.template,
             c.template_weight,
         );
-        Ok(ModelSearch { laws, traces: Traces::default(), gamma: 1.0, best: None })
+        Ok(ModelSearch { laws, traces: Traces::default(), best: None })
     }
 
     fn step(
@@ -206,6 +204,9 @@ impl Stepped for ModelSearch {
         spent: &dyn Fn() -> bool,
     ) -> Result<IterationRecord> {
         let mut rng = stream(c.rules.seed, Purpose::Init, iteration as u64, 0);
+        // The explorers and the search start as wide as the laws widened by `explore`: the data
+        // have grown since the last iteration's laws were fitted on fewer steps.
+        self.laws.inject(c.explore);
         let explored = self.explore(world, c, iteration, &mut rng, spent)?;
         let (plans, elite) = self.search(world, c, &mut rng);
         let successful = if self.best.is_none() || !spent() { self.confirm(world, c, &plans)? } else { false };
@@ -239,9 +240,7 @@ impl ModelSearch {
         rng: &mut crate::rng::EngineRng,
         spent: &dyn Fn() -> bool,
     ) -> Result<Vec<f64>> {
-        let mut laws = self.laws.clone();
-        laws.inject(c.explore);
-        let explorers: Vec<Controller> = (0..c.samples).map(|_| laws.draw(rng)).collect();
+        let explorers: Vec<Controller> = (0..c.samples).map(|_| self.laws.draw(rng)).collect();
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         let group = super::group_size(world.batch(), c.episodes);
         let rows = StepCredit::rows_of(&explorers[0]);
@@ -266,7 +265,6 @@ impl ModelSearch {
                     "sampled by a backend's workers (expected episodes run here: their steps do not come back yet)";
                 return Err(Error::invalid("world", why));
             }
-            self.gamma = traces.gamma;
             self.traces.append(traces);
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
         }
@@ -283,12 +281,9 @@ impl ModelSearch {
         rng: &mut crate::rng::EngineRng,
     ) -> (Vec<Plan>, Vec<f64>) {
         let shape = world.shape();
-        let (y1, a, gamma) = (shape.observations, shape.decisions, self.gamma);
+        let (y1, a, gamma) = (shape.observations, shape.decisions, self.traces.gamma);
         let elite_size = ((c.rho * c.memories as f64).ceil() as usize).clamp(1, c.memories);
         let (mut plans, mut elite) = (Vec::new(), Vec::new());
-        // The search starts as wide as the explorers' laws: the data have grown since the last
-        // iteration's laws were fitted on fewer steps.
-        self.laws.inject(c.explore);
         for _ in 0..c.rounds {
             let memories: Vec<Controller> = (0..c.memories).map(|_| self.laws.draw(rng)).collect();
             let traces = &self.traces;
