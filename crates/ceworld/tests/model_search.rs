@@ -17,9 +17,14 @@ mod temp;
 /// Repeat the first card: the first observation is a card of `CARDS` kinds, every later one a
 /// blank (`CARDS`); each step after the first pays 1 when its decision is the first card. A
 /// memoryless policy pays `(HORIZON - 1) / CARDS` on average, the best `HORIZON - 1`.
+/// With `back > 0`, repeat the card `back` steps before: every observation is a card, and each
+/// step from step `back` on pays 1 when its decision is the card `back` steps before (the best
+/// pays `HORIZON - back`).
 struct RepeatFirst {
-    first: Vec<u64>,
+    /// Each episode's cards, step after step.
+    cards: Vec<Vec<u64>>,
     t: usize,
+    back: usize,
     /// Not additive: the value is a score of its own.
     scored: bool,
 }
@@ -47,16 +52,24 @@ impl BatchWorld for RepeatFirst {
     }
     fn reset(&mut self, seed: u64, observations: &mut [i64]) -> ceworld::Result<()> {
         self.t = 0;
-        self.first = (0..observations.len()).map(|i| mix(seed, i) % CARDS as u64).collect();
-        for (y, &card) in observations.iter_mut().zip(&self.first) {
-            *y = card as i64;
+        let card = |i: usize, t: usize| mix(seed ^ (t as u64).wrapping_mul(0x2545_F491_4F6C_DD1D), i) % CARDS as u64;
+        self.cards = (0..observations.len()).map(|i| (0..=HORIZON).map(|t| card(i, t)).collect()).collect();
+        for (y, cards) in observations.iter_mut().zip(&self.cards) {
+            *y = cards[0] as i64;
         }
         Ok(())
     }
     fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
+        let (t, back) = (self.t, self.back);
         for (i, &d) in decisions.iter().enumerate() {
-            out.rewards[i] = f64::from(u8::from(self.t > 0 && d as u64 == self.first[i]));
-            out.observations[i] = CARDS as i64;
+            let cards = &self.cards[i];
+            let (paid, seen) = if back == 0 {
+                (t > 0 && d as u64 == cards[0], CARDS as u64)
+            } else {
+                (t >= back && d as u64 == cards[t - back], cards[t + 1])
+            };
+            out.rewards[i] = f64::from(u8::from(paid));
+            out.observations[i] = seen as i64;
         }
         self.t += 1;
         Ok(())
@@ -74,7 +87,11 @@ impl BatchWorld for RepeatFirst {
 }
 
 fn world(scored: bool) -> Lockstep<RepeatFirst> {
-    Lockstep::new(RepeatFirst { first: Vec::new(), t: 0, scored }).unwrap()
+    Lockstep::new(RepeatFirst { cards: Vec::new(), t: 0, back: 0, scored }).unwrap()
+}
+
+fn repeat_back(back: usize) -> Lockstep<RepeatFirst> {
+    Lockstep::new(RepeatFirst { cards: Vec::new(), t: 0, back, scored: false }).unwrap()
 }
 
 fn config(steps: u64, threads: usize) -> ModelSearchConfig {
@@ -97,6 +114,17 @@ fn a_memory_is_learnt_from_every_step_within_a_small_budget() {
     // The same search whatever the thread count.
     let two = run_stepped::<ModelSearch>(&world(false), &config(6000, 2), None, |_| Flow::Continue).unwrap();
     assert_eq!((two.policy, two.env_steps), (outcome.policy, outcome.env_steps));
+}
+
+#[test]
+fn a_lens_finds_the_card_two_steps_back_and_tables_alone_find_the_first_card() {
+    // The lens of lag 2 (three states) among all of at most three features.
+    let lag = run_stepped::<ModelSearch>(&repeat_back(2), &config(6000, 1), None, |_| Flow::Continue).unwrap();
+    assert_eq!(lag.evaluation.mean, (HORIZON - 2) as f64, "{:?}", lag.history);
+    // Without lenses, the cross-entropy method over successor tables finds the latch.
+    let tables = ModelSearchConfig { window: 0, ..config(6000, 1) };
+    let latch = run_stepped::<ModelSearch>(&world(false), &tables, None, |_| Flow::Continue).unwrap();
+    assert_eq!(latch.evaluation.mean, (HORIZON - 1) as f64, "{:?}", latch.history);
 }
 
 #[test]

@@ -14,6 +14,7 @@ mod bounds;
 pub mod checkpoint;
 pub mod config;
 mod laws;
+pub mod lens;
 mod memory;
 pub mod model;
 pub mod model_search;

@@ -1,34 +1,34 @@
 //! The empirical model of a candidate memory over every step kept (model §10, memory from every
-//! step): the kept episodes replayed through the memory give its agent states (the node after
-//! each observation); counted, they give for each (node, decision) its visits, its mean reward
-//! and the law of the next observation, hence of the next node. Value iteration on that model
+//! step): the kept episodes replayed through the memory give its agent state at each step (what
+//! the memory holds when the step decides); counted, they give for each (state, decision) its
+//! visits, its mean reward and the law of the next agent state. Value iteration on that model
 //! plans the memory's decisions and values it, so that every step taken serves every memory
 //! considered, not only the controller that took it.
 //!
-//! The model is a guess where the memory is not a sufficient statistic of the past, and it
-//! flatters decisions seen rarely: each (node, decision) loses `pessimism · spread / √visits`
+//! The model is a guess where the agent state is not a sufficient statistic of the past, and it
+//! flatters decisions seen rarely: each (state, decision) loses `pessimism · spread / √visits`
 //! (`spread` the range of the steps' rewards), and a learner confirms a plan on episodes of the
 //! world before it keeps it.
 
 use crate::episodes::trace::Traces;
-use crate::policy::controller::Controller;
 
-/// What the kept steps say of a memory's (node, decision) pairs.
+/// What the kept steps say of a memory's (state, decision) pairs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AgentModel {
-    /// Nodes of the memory.
-    pub nodes: usize,
+    /// Agent states of the memory.
+    pub states: usize,
     /// Decisions.
     pub actions: usize,
-    /// Observations (the successor table's stride).
-    pub observations: usize,
-    /// Steps that decided `d` in node `q`, at `q·A + d`.
+    /// Steps that decided `d` in state `s`, at `s·A + d`.
     pub visits: Vec<u32>,
     /// Their summed reward.
     pub reward: Vec<f64>,
-    /// Their next observations counted, at `(q·A + d)·Y + y` (an episode's last step has none).
-    pub next: Vec<u32>,
-    /// Episodes that started in node `q` (after their first observation).
+    /// The next states met after pair `p`: `next[from[p]..from[p + 1]]`, each `(state, count)`,
+    /// by state (an episode's last step has none).
+    pub next: Vec<(u32, u32)>,
+    /// Where each pair's next states begin in `next` (`states·A + 1` entries).
+    pub from: Vec<u32>,
+    /// Episodes whose first step decided in state `s`.
     pub starts: Vec<u32>,
     /// The largest reward of a step less the smallest.
     pub spread: f64,
@@ -36,50 +36,99 @@ pub struct AgentModel {
     pub longest: usize,
 }
 
+/// A memory's decisions planned on its model, and the model's value of them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Planned {
+    /// The decision of each agent state.
+    pub act: Vec<u32>,
+    /// The model's mean value of the kept episodes' starts.
+    pub value: f64,
+}
+
+/// The agent state of every kept step under a successor table (a controller's `next`,
+/// `successor[q·Y + y]`, from node 0): the node each step decides in.
+pub fn replay(successor: &[u32], observations: usize, traces: &Traces) -> Vec<u32> {
+    let mut state = Vec::with_capacity(traces.steps());
+    for episode in traces.episodes() {
+        let mut q = 0usize;
+        for t in episode {
+            q = successor[q * observations + traces.obs[t] as usize] as usize;
+            state.push(q as u32);
+        }
+    }
+    state
+}
+
 impl AgentModel {
-    /// The model of the memory `successor` (`successor[q·Y + y]`, a controller's `next`, of
-    /// `successor.len() / observations` nodes) over `traces`.
-    pub fn fit(successor: &[u32], observations: usize, actions: usize, traces: &Traces) -> AgentModel {
-        let nodes = successor.len() / observations;
+    /// The model of a memory whose agent state at kept step `t` is `state[t]` (one of `states`),
+    /// over `traces`.
+    pub fn fit(state: &[u32], states: usize, actions: usize, traces: &Traces) -> AgentModel {
+        let pairs = states * actions;
         let mut m = AgentModel {
-            nodes,
+            states,
             actions,
-            observations,
-            visits: vec![0; nodes * actions],
-            reward: vec![0.0; nodes * actions],
-            next: vec![0; nodes * actions * observations],
-            starts: vec![0; nodes],
+            visits: vec![0; pairs],
+            reward: vec![0.0; pairs],
+            next: Vec::new(),
+            from: vec![0; pairs + 1],
+            starts: vec![0; states],
             spread: 0.0,
             longest: 0,
         };
+        let pair = |t: usize| state[t] as usize * actions + traces.dec[t] as usize;
         let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
         for episode in traces.episodes() {
-            let Some(first) = traces.obs.get(episode.start) else { continue };
+            if episode.is_empty() {
+                continue;
+            }
             m.longest = m.longest.max(episode.len());
-            let mut q = successor[*first as usize] as usize;
-            m.starts[q] += 1;
+            m.starts[state[episode.start] as usize] += 1;
             for t in episode.clone() {
-                let (d, r) = (traces.dec[t] as usize, traces.rew[t]);
-                let at = q * actions + d;
-                m.visits[at] += 1;
-                m.reward[at] += r;
+                let (p, r) = (pair(t), traces.rew[t]);
+                m.visits[p] += 1;
+                m.reward[p] += r;
                 (low, high) = (low.min(r), high.max(r));
                 if t + 1 < episode.end {
-                    let y = traces.obs[t + 1] as usize;
-                    m.next[at * observations + y] += 1;
-                    q = successor[q * observations + y] as usize;
+                    m.from[p + 1] += 1;
                 }
             }
         }
         m.spread = if high > low { high - low } else { 0.0 };
+        // The successors of each pair in place (a counting sort), then sorted and counted.
+        for p in 0..pairs {
+            m.from[p + 1] += m.from[p];
+        }
+        let mut fill: Vec<u32> = m.from[..pairs].to_vec();
+        let mut to = vec![0u32; m.from[pairs] as usize];
+        for episode in traces.episodes() {
+            for t in episode.start..episode.end.saturating_sub(1) {
+                let p = pair(t);
+                to[fill[p] as usize] = state[t + 1];
+                fill[p] += 1;
+            }
+        }
+        let mut from = vec![0u32; pairs + 1];
+        for p in 0..pairs {
+            let run = &mut to[m.from[p] as usize..m.from[p + 1] as usize];
+            run.sort_unstable();
+            for &s in run.iter() {
+                let ours = m.next.len() > from[p] as usize;
+                match m.next.last_mut() {
+                    Some((last, count)) if ours && *last == s => *count += 1,
+                    _ => m.next.push((s, 1)),
+                }
+            }
+            from[p + 1] = m.next.len() as u32;
+        }
+        m.from = from;
         m
     }
 
     /// The decisions that value iteration on the model chooses (`horizon` backups discounted by
-    /// `gamma`, each (node, decision) less `pessimism · spread / √visits`; a node never visited
+    /// `gamma`, each (state, decision) less `pessimism · spread / √visits`; a state never visited
     /// keeps `fallback`'s decision), and the model's value of the episodes' starts under them.
-    pub fn plan(&self, successor: &[u32], gamma: f64, horizon: usize, pessimism: f64, fallback: &[u32]) -> Plan {
-        let (n, a, y1) = (self.nodes, self.actions, self.observations);
+    pub fn plan(&self, gamma: f64, horizon: usize, pessimism: f64, fallback: &[u32]) -> Planned {
+        let (n, a) = (self.states, self.actions);
         let penalty: Vec<f64> = self
             .visits
             .iter()
@@ -89,48 +138,39 @@ impl AgentModel {
         let mut act: Vec<u32> = fallback.to_vec();
         for _ in 0..horizon.max(1) {
             fresh.fill(0.0);
-            for q in 0..n {
+            for s in 0..n {
                 let mut best: Option<(f64, u32)> = None;
                 for d in 0..a {
-                    let at = q * a + d;
-                    if self.visits[at] == 0 {
+                    let p = s * a + d;
+                    if self.visits[p] == 0 {
                         continue;
                     }
-                    let visits = f64::from(self.visits[at]);
-                    let ahead: f64 = (0..y1)
-                        .filter(|&y| self.next[at * y1 + y] > 0)
-                        .map(|y| f64::from(self.next[at * y1 + y]) * value[successor[q * y1 + y] as usize])
+                    let ahead: f64 = self.next[self.from[p] as usize..self.from[p + 1] as usize]
+                        .iter()
+                        .map(|&(to, count)| f64::from(count) * value[to as usize])
                         .sum();
-                    let q_value = (self.reward[at] + gamma * ahead) / visits - penalty[at];
+                    let q_value = (self.reward[p] + gamma * ahead) / f64::from(self.visits[p]) - penalty[p];
                     if best.is_none_or(|(b, _)| q_value > b) {
                         best = Some((q_value, d as u32));
                     }
                 }
                 if let Some((v, d)) = best {
-                    fresh[q] = v;
-                    act[q] = d;
+                    fresh[s] = v;
+                    act[s] = d;
                 }
             }
             std::mem::swap(&mut value, &mut fresh);
         }
         let episodes: u32 = self.starts.iter().sum();
         let start = self.starts.iter().zip(&value).map(|(&s, &v)| f64::from(s) * v).sum::<f64>();
-        Plan { controller: Controller::moore(act, successor.to_vec()), value: start / f64::from(episodes.max(1)) }
+        Planned { act, value: start / f64::from(episodes.max(1)) }
     }
-}
-
-/// A memory with the decisions planned on its model, and the model's value of it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Plan {
-    /// The memory with its planned decisions (a Moore machine).
-    pub controller: Controller,
-    /// The model's mean value of the kept episodes' starts.
-    pub value: f64,
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::policy::controller::Controller;
 
     /// `RepeatPrevious` by hand: two observations, reward 1 for deciding the observation before
     /// (the first step pays nothing either way); every sequence of three observations played by
@@ -152,14 +192,24 @@ mod tests {
     fn the_kept_steps_are_counted_per_node_and_decision() {
         let traces = echo_traces();
         // Memoryless: one node whatever it observes.
-        let m = AgentModel::fit(&[0, 0], 2, 2, &traces);
+        let m = AgentModel::fit(&replay(&[0, 0], 2, &traces), 1, 2, &traces);
         assert_eq!(m.visits, vec![24, 24]);
         assert_eq!(m.starts, vec![16]);
         assert_eq!((m.spread, m.longest), (1.0, 3));
         // Steps 2 and 3 pay where the observation before is the decision: half the sequences each.
         assert_eq!(m.reward, vec![8.0, 8.0]);
-        // Sixteen episodes of three steps: two next observations each, half of them 1.
-        assert_eq!(m.next, vec![8, 8, 8, 8]);
+        // Eight episodes of three steps per decision: two steps each lead on, to the one state.
+        assert_eq!(m.next, vec![(0, 16), (0, 16)]);
+        assert_eq!(m.from, vec![0, 1, 2]);
+        // A window of two: the next states of each pair by state, each counted once per step.
+        let window = [0, 1, 2, 3, 0, 1, 2, 3];
+        let w = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces);
+        let of = |p: usize| w.next[w.from[p] as usize..w.from[p + 1] as usize].to_vec();
+        // State 1 holds (0, 1) (or 1 first): after it, (1, 0) or (1, 1), each as often; decided 0
+        // at the first step of four sequences and the second of two.
+        assert_eq!(of(2), vec![(2, 3), (3, 3)]);
+        assert_eq!(w.from[8] as usize, w.next.len());
+        assert_eq!(w.next.iter().map(|&(_, c)| c).sum::<u32>(), 32);
     }
 
     #[test]
@@ -167,12 +217,12 @@ mod tests {
         let traces = echo_traces();
         // A window of two (model §8's "window" template): node (q·Y + y) mod 4 holds (y_{t-1}, y_t).
         let window = [0, 1, 2, 3, 0, 1, 2, 3];
-        let m = AgentModel::fit(&window, 2, 2, &traces);
-        let plan = m.plan(&window, 1.0, m.longest, 0.0, &[0; 4]);
+        let m = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces);
+        let plan = m.plan(1.0, m.longest, 0.0, &[0; 4]);
         // Node q holds y_{t-1} = q / 2: decide it.
-        assert_eq!(plan.controller.act, vec![0, 0, 1, 1]);
-        let none = AgentModel::fit(&[0, 0], 2, 2, &traces);
-        let memoryless = none.plan(&[0, 0], 1.0, none.longest, 0.0, &[0]);
+        assert_eq!(plan.act, vec![0, 0, 1, 1]);
+        let none = AgentModel::fit(&replay(&[0, 0], 2, &traces), 1, 2, &traces);
+        let memoryless = none.plan(1.0, none.longest, 0.0, &[0]);
         assert!(plan.value > memoryless.value, "{} vs {}", plan.value, memoryless.value);
     }
 
@@ -180,13 +230,13 @@ mod tests {
     fn pessimism_lowers_what_few_steps_support_and_unvisited_nodes_keep_their_fallback() {
         let traces = echo_traces();
         let window = [0, 1, 2, 3, 0, 1, 2, 3];
-        let m = AgentModel::fit(&window, 2, 2, &traces);
-        let bold = m.plan(&window, 1.0, 3, 0.0, &[0; 4]).value;
-        let careful = m.plan(&window, 1.0, 3, 1.0, &[0; 4]).value;
+        let m = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces);
+        let bold = m.plan(1.0, 3, 0.0, &[0; 4]).value;
+        let careful = m.plan(1.0, 3, 1.0, &[0; 4]).value;
         assert!(careful < bold);
         // A memory of three nodes whose third is never entered keeps its fallback decision there.
         let three = [0, 1, 0, 1, 2, 2];
-        let m3 = AgentModel::fit(&three, 2, 2, &traces);
-        assert_eq!(m3.plan(&three, 1.0, 3, 0.0, &[0, 0, 1]).controller.act[2], 1);
+        let m3 = AgentModel::fit(&replay(&three, 2, &traces), 3, 2, &traces);
+        assert_eq!(m3.plan(1.0, 3, 0.0, &[0, 0, 1]).act[2], 1);
     }
 }

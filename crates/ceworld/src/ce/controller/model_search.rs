@@ -2,23 +2,29 @@
 //! step it takes and ranks candidate memories on the model those steps give, instead of valuing
 //! each candidate on fresh episodes of its own.
 //!
-//! Each iteration (1) explores: draws `samples` controllers from the laws mixed with `explore`
-//! of the uniform law and runs each `episodes` episodes, keeping their steps (the last
-//! `memory_steps`: [`Traces`]); (2) searches memories on the model, with no step of the world:
-//! `rounds` rounds of the cross-entropy method (model §3) over the memory's laws, each drawing
-//! `memories` memories, replaying every kept step through each ([`AgentModel`]), planning its
-//! decisions and ranking it by the model's value, the best `rho` refitting the laws; (3) confirms:
-//! the `confirm` best plans of the last round are valued on the `select_episodes` selection
-//! episodes of the world (shared by every iteration), and the best of them replaces the best so
-//! far where it scores higher. A stepped optimiser (`ceworld run model-search`, `cehmm.run`):
-//! budgets, checkpoints, progress and backends come from the spine.
+//! Each iteration (1) explores: `samples` controllers run `episodes` episodes each, keeping their
+//! steps (the last `memory_steps`: [`Traces`]); they are drawn from the laws mixed with `explore`
+//! of the uniform law, and a `greedy` share of them, once there is a best so far, is that best
+//! with `explore` of its decisions drawn again. (2) Searches memories on the model, with no step
+//! of the world: `rounds` rounds of the cross-entropy method (model §3) over the laws of a
+//! successor table, each drawing `memories` tables, replaying every kept step through each
+//! ([`AgentModel`]), planning its decisions and ranking it by the model's value, the best `rho`
+//! refitting the laws; and every lens of at most `lens_features` features ([`Lens`]: lags of the
+//! last `window` observations, the first, the decision before) planned and valued the same way.
+//! (3) Confirms: the `confirm` best plans of each family and the best so far are valued on the
+//! iteration's selection episodes; the best plan replaces the best so far where it beats it on
+//! them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
+//! `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use rand::RngExt;
+
 use super::config::Template;
 use super::laws::Laws;
-use super::model::{AgentModel, Plan};
+use super::lens::{Lens, Sizes};
+use super::model::{AgentModel, replay};
 use crate::ce::record::IterationRecord;
 use crate::ce::stepped::{Rules, Stepped};
 use crate::episodes::credit::StepCredit;
@@ -28,7 +34,7 @@ use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::policy::Hhmm;
 use crate::policy::controller::Controller;
-use crate::rng::{Purpose, stream};
+use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
 
 /// The settings of the search of memories on the model of every step.
@@ -46,8 +52,11 @@ pub struct ModelSearchConfig {
     pub samples: usize,
     /// Episodes of each.
     pub episodes: usize,
-    /// Weight of the uniform law mixed into the laws the explorers are drawn from.
+    /// Weight of the uniform law mixed into the laws the explorers are drawn from, and share of
+    /// the best's decisions drawn again in a greedy explorer.
     pub explore: f64,
+    /// Share of the explorers that are the best so far with some decisions drawn again.
+    pub greedy: f64,
     /// Memories ranked on the model per round.
     pub memories: usize,
     /// Rounds of the cross-entropy method on the model per iteration.
@@ -64,6 +73,12 @@ pub struct ModelSearchConfig {
     pub select_episodes: usize,
     /// Steps kept for the model (the latest).
     pub memory_steps: usize,
+    /// Lags the lenses look at, the current observation included (0: no lenses).
+    pub window: usize,
+    /// Features (lags, the first observation) a lens looks at, at most.
+    pub lens_features: usize,
+    /// Nodes of a lens's machine, at most.
+    pub lens_nodes: usize,
     /// Stop rules, budgets, seed, threads and final evaluation ([`Rules`]).
     #[serde(flatten)]
     pub rules: Rules,
@@ -79,14 +94,18 @@ impl Default for ModelSearchConfig {
             samples: 16,
             episodes: 4,
             explore: 0.3,
+            greedy: 0.5,
             memories: 500,
             rounds: 20,
             rho: 0.05,
             smoothing: 0.5,
             pessimism: 0.1,
-            confirm: 2,
+            confirm: 1,
             select_episodes: 20,
             memory_steps: 200_000,
+            window: 8,
+            lens_features: 3,
+            lens_nodes: 1024,
             rules: Rules::default(),
         }
     }
@@ -102,6 +121,7 @@ impl Settings for ModelSearchConfig {
             "samples" => self.samples = s.count()?,
             "episodes" => self.episodes = s.count()?,
             "explore" => self.explore = s.real()?,
+            "greedy" => self.greedy = s.real()?,
             "memories" => self.memories = s.count()?,
             "rounds" => self.rounds = s.count()?,
             "rho" => self.rho = s.real()?,
@@ -110,6 +130,9 @@ impl Settings for ModelSearchConfig {
             "confirm" => self.confirm = s.count()?,
             "select_episodes" => self.select_episodes = s.count()?,
             "memory_steps" => self.memory_steps = s.count()?,
+            "window" => self.window = s.count()?,
+            "lens_features" => self.lens_features = s.count()?,
+            "lens_nodes" => self.lens_nodes = s.count()?,
             name if Rules::owns(name) => self.rules.set(s)?,
             other => return Err(self.unknown(other)),
         }
@@ -124,8 +147,19 @@ pub struct ModelSearch {
     pub laws: Laws,
     /// The latest steps taken (with the world's discount).
     pub traces: Traces,
-    /// The best controller so far, with its score on the selection episodes.
-    pub best: Option<(Controller, f64)>,
+    /// The best controller so far.
+    pub best: Option<Incumbent>,
+}
+
+/// The best controller so far, with its mean value over every selection episode it was valued on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Incumbent {
+    /// The controller.
+    pub controller: Controller,
+    /// Its mean value on the selection episodes it was valued on.
+    pub value: f64,
+    /// How many.
+    pub episodes: usize,
 }
 
 impl Stepped for ModelSearch {
@@ -138,7 +172,9 @@ impl Stepped for ModelSearch {
     }
 
     fn episodes(c: &ModelSearchConfig) -> usize {
-        c.samples.saturating_mul(c.episodes) + c.confirm.saturating_mul(c.select_episodes)
+        // The explorers; the plans of each family and the best so far on the selection episodes.
+        let families = if c.window > 0 { 2 } else { 1 };
+        c.samples.saturating_mul(c.episodes) + (families * c.confirm + 1).saturating_mul(c.select_episodes)
     }
 
     fn validate(c: &ModelSearchConfig) -> Result<()> {
@@ -151,10 +187,14 @@ impl Stepped for ModelSearch {
             ("confirm", c.confirm),
             ("select_episodes", c.select_episodes),
             ("memory_steps", c.memory_steps),
+            ("lens_nodes", c.lens_nodes),
         ] {
             if value == 0 {
                 return Err(Error::invalid(name, "0 (expected at least 1)"));
             }
+        }
+        if c.window > 16 {
+            return Err(Error::invalid("window", format!("{} (expected at most 16 lags)", c.window)));
         }
         if c.registers > 0 {
             let d = (c.nodes as f64).powf(1.0 / c.registers as f64).round() as usize;
@@ -163,7 +203,7 @@ impl Stepped for ModelSearch {
                 return Err(Error::invalid("nodes", why));
             }
         }
-        for (name, value) in [("template_weight", c.template_weight), ("explore", c.explore)] {
+        for (name, value) in [("template_weight", c.template_weight), ("explore", c.explore), ("greedy", c.greedy)] {
             if !(0.0..1.0).contains(&value) {
                 return Err(Error::invalid(name, format!("{value} (expected a number in [0, 1))")));
             }
@@ -208,9 +248,11 @@ impl Stepped for ModelSearch {
         // have grown since the last iteration's laws were fitted on fewer steps.
         self.laws.inject(c.explore);
         let explored = self.explore(world, c, iteration, &mut rng, spent)?;
-        let (plans, elite) = self.search(world, c, &mut rng);
-        let successful = if self.best.is_none() || !spent() { self.confirm(world, c, &plans)? } else { false };
-        let best = self.best.as_ref().map_or(f64::NEG_INFINITY, |(_, v)| *v);
+        let (tables, elite) = self.search(world, c, &mut rng);
+        let lenses = self.lenses(world, c);
+        let successful =
+            if self.best.is_none() || !spent() { self.confirm(world, c, iteration, [tables, lenses])? } else { false };
+        let best = self.best.as_ref().map_or(f64::NEG_INFINITY, |b| b.value);
         Ok(IterationRecord {
             iteration,
             mean: mean(explored.iter().copied()),
@@ -225,31 +267,61 @@ impl Stepped for ModelSearch {
 
     fn policy(&self, world: &dyn Episodes) -> Result<Hhmm> {
         let shape = world.shape();
-        let (best, _) = self.best.as_ref().ok_or_else(|| Error::invalid("model-search", "no iteration has run"))?;
-        best.to_hhmm(shape.observations, shape.decisions)
+        let best = self.best.as_ref().ok_or_else(|| Error::invalid("model-search", "no iteration has run"))?;
+        best.controller.to_hhmm(shape.observations, shape.decisions)
     }
 }
 
+/// A memory with the decisions planned on its model, and the model's value of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// The memory with its planned decisions.
+    pub controller: Controller,
+    /// The model's mean value of the kept episodes' starts.
+    pub value: f64,
+}
+
+/// `c` with each of its decisions drawn again, uniformly among `actions`, with probability `rate`.
+fn perturb(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Controller {
+    let mut c = c.clone();
+    let decisions = if c.is_mealy() { &mut c.on } else { &mut c.act };
+    for d in decisions.iter_mut() {
+        if rng.random::<f64>() < rate {
+            *d = rng.random_range(0..actions as u32);
+        }
+    }
+    c
+}
+
 impl ModelSearch {
-    /// Runs the iteration's explorers, keeping their steps; their mean values.
+    /// Runs the iteration's explorers, keeping their steps; their mean values. They are drawn
+    /// from the laws, and a `greedy` share of them is the best so far with `explore` of its
+    /// decisions drawn again.
     fn explore(
         &mut self,
         world: &dyn Episodes,
         c: &ModelSearchConfig,
         iteration: usize,
-        rng: &mut crate::rng::EngineRng,
+        rng: &mut EngineRng,
         spent: &dyn Fn() -> bool,
     ) -> Result<Vec<f64>> {
-        let explorers: Vec<Controller> = (0..c.samples).map(|_| self.laws.draw(rng)).collect();
+        let greedy = if self.best.is_some() { (c.greedy * c.samples as f64).round() as usize } else { 0 };
+        let mut explorers: Vec<Controller> = (0..c.samples - greedy).map(|_| self.laws.draw(rng)).collect();
+        if let Some(best) = &self.best {
+            let actions = world.shape().decisions;
+            explorers.extend((0..greedy).map(|_| perturb(&best.controller, c.explore, actions, rng)));
+        }
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         let group = super::group_size(world.batch(), c.episodes);
-        let rows = StepCredit::rows_of(&explorers[0]);
         let mut means = Vec::with_capacity(c.samples);
         for chunk in explorers.chunks(group) {
             if !means.is_empty() && spent() {
                 break;
             }
             let mut values = vec![0.0; chunk.len() * c.episodes];
+            // Explorers of two shapes may share a group: the rows of the largest (only the
+            // steps are read).
+            let rows = chunk.iter().map(StepCredit::rows_of).max().unwrap_or(0);
             let mut credit = StepCredit::traced(chunk.len(), rows);
             let (_, credited) = world.run_controllers_credited(chunk, streams, c.episodes, &mut values, &mut credit)?;
             let traces = credit.traces.take().filter(|_| credited).ok_or_else(|| {
@@ -274,12 +346,7 @@ impl ModelSearch {
 
     /// The rounds of the cross-entropy method over the memory's laws on the model of the kept
     /// steps: the last round's plans, best first, and the model's values of its elite.
-    fn search(
-        &mut self,
-        world: &dyn Episodes,
-        c: &ModelSearchConfig,
-        rng: &mut crate::rng::EngineRng,
-    ) -> (Vec<Plan>, Vec<f64>) {
+    fn search(&mut self, world: &dyn Episodes, c: &ModelSearchConfig, rng: &mut EngineRng) -> (Vec<Plan>, Vec<f64>) {
         let shape = world.shape();
         let (y1, a, gamma) = (shape.observations, shape.decisions, self.traces.gamma);
         let elite_size = ((c.rho * c.memories as f64).ceil() as usize).clamp(1, c.memories);
@@ -290,8 +357,9 @@ impl ModelSearch {
             plans = memories
                 .par_iter()
                 .map(|m| {
-                    let model = AgentModel::fit(&m.next, y1, a, traces);
-                    model.plan(&m.next, gamma, model.longest, c.pessimism, &m.act)
+                    let model = AgentModel::fit(&replay(&m.next, y1, traces), m.nodes(), a, traces);
+                    let planned = model.plan(gamma, model.longest, c.pessimism, &m.act);
+                    Plan { controller: Controller::moore(planned.act, m.next.clone()), value: planned.value }
                 })
                 .collect();
             // Best first; equal values keep the order drawn.
@@ -303,27 +371,71 @@ impl ModelSearch {
         (plans, elite)
     }
 
-    /// Values the best distinct plans on the selection episodes; whether one beat the best so far.
-    fn confirm(&mut self, world: &dyn Episodes, c: &ModelSearchConfig, plans: &[Plan]) -> Result<bool> {
+    /// Every lens ([`Lens::all`]) planned and valued on the model of the kept steps, best first.
+    fn lenses(&self, world: &dyn Episodes, c: &ModelSearchConfig) -> Vec<Plan> {
+        if c.window == 0 {
+            return Vec::new();
+        }
+        let shape = world.shape();
+        let (sizes, traces) = (Sizes { y: shape.observations, a: shape.decisions }, &self.traces);
+        let lenses = Lens::all(c.window, c.lens_features, sizes, c.lens_nodes);
+        let mut plans: Vec<Plan> = lenses
+            .par_iter()
+            .map(|&lens| {
+                let states = lens.states(sizes);
+                let model = AgentModel::fit(&lens.replay(sizes, traces), states, sizes.a, traces);
+                let planned = model.plan(traces.gamma, model.longest, c.pessimism, &vec![0; states]);
+                Plan { controller: lens.controller(&planned.act, sizes), value: planned.value }
+            })
+            .collect();
+        plans.sort_by(|p, q| q.value.total_cmp(&p.value));
+        plans
+    }
+
+    /// Values the `confirm` best distinct plans of each family, and the best so far, on the
+    /// iteration's selection episodes (fresh ones, the same for all); the best plan replaces the
+    /// best so far where it beats it on them (then true), else they add to its value.
+    fn confirm<const F: usize>(
+        &mut self,
+        world: &dyn Episodes,
+        c: &ModelSearchConfig,
+        iteration: usize,
+        families: [Vec<Plan>; F],
+    ) -> Result<bool> {
         let mut few: Vec<Controller> = Vec::new();
-        for p in plans {
-            if few.len() == c.confirm {
-                break;
-            }
-            if !few.contains(&p.controller) {
-                few.push(p.controller.clone());
+        let held = self.best.as_ref().map(|b| &b.controller);
+        for plans in families {
+            let mut taken = 0;
+            for p in plans {
+                if taken == c.confirm {
+                    break;
+                }
+                if !few.contains(&p.controller) && held != Some(&p.controller) {
+                    few.push(p.controller);
+                    taken += 1;
+                }
             }
         }
-        let streams = Streams { seed: c.rules.seed, purpose: Purpose::Select, iteration: 0 };
+        let plans = few.len();
+        few.extend(held.cloned());
+        let streams = Streams { seed: c.rules.seed, purpose: Purpose::Select, iteration: iteration as u64 };
         let m = c.select_episodes;
         let mut values = vec![0.0; few.len() * m];
         world.run_controllers(&few, streams, m, &mut values)?;
         let scores: Vec<f64> = values.chunks(m).map(|v| mean(v.iter().copied())).collect();
-        let k = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
-        let better = self.best.as_ref().is_none_or(|(_, v)| scores[k] > *v);
-        if better {
-            self.best = Some((few[k].clone(), scores[k]));
+        let k = (0..plans).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
+        let fresh = |k: usize| Incumbent { controller: few[k].clone(), value: scores[k], episodes: m };
+        match &mut self.best {
+            None if plans > 0 => self.best = Some(fresh(k)),
+            Some(best) if plans > 0 && scores[k] > scores[plans] => *best = fresh(k),
+            Some(best) => {
+                let n = best.episodes + m;
+                best.value = (best.value * best.episodes as f64 + scores[plans] * m as f64) / n as f64;
+                best.episodes = n;
+                return Ok(false);
+            }
+            None => return Ok(false),
         }
-        Ok(better)
+        Ok(true)
     }
 }
