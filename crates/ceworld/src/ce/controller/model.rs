@@ -61,8 +61,8 @@ pub fn replay(successor: &[u32], observations: usize, traces: &Traces) -> Vec<u3
 
 impl AgentModel {
     /// The model of a memory whose agent state at kept step `t` is `state[t]` (one of `states`),
-    /// over `traces`.
-    pub fn fit(state: &[u32], states: usize, actions: usize, traces: &Traces) -> AgentModel {
+    /// over the episodes of `traces` (those of parity `half` only, where given).
+    pub fn fit(state: &[u32], states: usize, actions: usize, traces: &Traces, half: Option<usize>) -> AgentModel {
         let pairs = states * actions;
         let mut m = AgentModel {
             states,
@@ -77,7 +77,9 @@ impl AgentModel {
         };
         let pair = |t: usize| state[t] as usize * actions + traces.dec[t] as usize;
         let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
-        for episode in traces.episodes() {
+        let chosen = |e: usize| half.is_none_or(|h| e % 2 == h);
+        let episodes = || traces.episodes().enumerate().filter(|&(e, _)| chosen(e)).map(|(_, range)| range);
+        for episode in episodes() {
             if episode.is_empty() {
                 continue;
             }
@@ -100,7 +102,7 @@ impl AgentModel {
         }
         let mut fill: Vec<u32> = m.from[..pairs].to_vec();
         let mut to = vec![0u32; m.from[pairs] as usize];
-        for episode in traces.episodes() {
+        for episode in episodes() {
             for t in episode.start..episode.end.saturating_sub(1) {
                 let p = pair(t);
                 to[fill[p] as usize] = state[t + 1];
@@ -145,11 +147,7 @@ impl AgentModel {
                     if self.visits[p] == 0 {
                         continue;
                     }
-                    let ahead: f64 = self.next[self.from[p] as usize..self.from[p + 1] as usize]
-                        .iter()
-                        .map(|&(to, count)| f64::from(count) * value[to as usize])
-                        .sum();
-                    let q_value = (self.reward[p] + gamma * ahead) / f64::from(self.visits[p]) - penalty[p];
+                    let q_value = self.q(p, gamma, &value) - penalty[p];
                     if best.is_none_or(|(b, _)| q_value > b) {
                         best = Some((q_value, d as u32));
                     }
@@ -161,9 +159,47 @@ impl AgentModel {
             }
             std::mem::swap(&mut value, &mut fresh);
         }
+        Planned { act, value: self.start_value(&value) }
+    }
+
+    /// The model's value of the episodes' starts when state `s` decides `act[s]` (`horizon`
+    /// backups discounted by `gamma`, no doubt); where that pair was never seen, what the steps
+    /// did there: the state's pairs seen, weighted by their visits.
+    pub fn evaluate(&self, act: &[u32], gamma: f64, horizon: usize) -> f64 {
+        let (n, a) = (self.states, self.actions);
+        let (mut value, mut fresh) = (vec![0.0; n], vec![0.0; n]);
+        for _ in 0..horizon.max(1) {
+            for s in 0..n {
+                let p = s * a + act[s] as usize;
+                fresh[s] = if self.visits[p] > 0 {
+                    self.q(p, gamma, &value)
+                } else {
+                    let seen = (s * a..(s + 1) * a).filter(|&p| self.visits[p] > 0);
+                    let (sum, visits) = seen.fold((0.0, 0u32), |(sum, visits), p| {
+                        (sum + self.q(p, gamma, &value) * f64::from(self.visits[p]), visits + self.visits[p])
+                    });
+                    if visits == 0 { 0.0 } else { sum / f64::from(visits) }
+                };
+            }
+            std::mem::swap(&mut value, &mut fresh);
+        }
+        self.start_value(&value)
+    }
+
+    /// The mean reward of pair `p` and its next states' values by `value`, discounted by `gamma`.
+    fn q(&self, p: usize, gamma: f64, value: &[f64]) -> f64 {
+        let ahead: f64 = self.next[self.from[p] as usize..self.from[p + 1] as usize]
+            .iter()
+            .map(|&(to, count)| f64::from(count) * value[to as usize])
+            .sum();
+        (self.reward[p] + gamma * ahead) / f64::from(self.visits[p])
+    }
+
+    /// The mean of `value` over the episodes' starts.
+    fn start_value(&self, value: &[f64]) -> f64 {
         let episodes: u32 = self.starts.iter().sum();
-        let start = self.starts.iter().zip(&value).map(|(&s, &v)| f64::from(s) * v).sum::<f64>();
-        Planned { act, value: start / f64::from(episodes.max(1)) }
+        let start = self.starts.iter().zip(value).map(|(&s, &v)| f64::from(s) * v).sum::<f64>();
+        start / f64::from(episodes.max(1))
     }
 }
 
@@ -192,7 +228,7 @@ mod tests {
     fn the_kept_steps_are_counted_per_node_and_decision() {
         let traces = echo_traces();
         // Memoryless: one node whatever it observes.
-        let m = AgentModel::fit(&replay(&[0, 0], 2, &traces), 1, 2, &traces);
+        let m = AgentModel::fit(&replay(&[0, 0], 2, &traces), 1, 2, &traces, None);
         assert_eq!(m.visits, vec![24, 24]);
         assert_eq!(m.starts, vec![16]);
         assert_eq!((m.spread, m.longest), (1.0, 3));
@@ -203,7 +239,7 @@ mod tests {
         assert_eq!(m.from, vec![0, 1, 2]);
         // A window of two: the next states of each pair by state, each counted once per step.
         let window = [0, 1, 2, 3, 0, 1, 2, 3];
-        let w = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces);
+        let w = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces, None);
         let of = |p: usize| w.next[w.from[p] as usize..w.from[p + 1] as usize].to_vec();
         // State 1 holds (0, 1) (or 1 first): after it, (1, 0) or (1, 1), each as often; decided 0
         // at the first step of four sequences and the second of two.
@@ -217,12 +253,18 @@ mod tests {
         let traces = echo_traces();
         // A window of two (model §8's "window" template): node (q·Y + y) mod 4 holds (y_{t-1}, y_t).
         let window = [0, 1, 2, 3, 0, 1, 2, 3];
-        let m = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces);
+        let m = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces, None);
         let plan = m.plan(1.0, m.longest, 0.0, &[0; 4]);
         // Node q holds y_{t-1} = q / 2: decide it.
         assert_eq!(plan.act, vec![0, 0, 1, 1]);
-        let none = AgentModel::fit(&replay(&[0, 0], 2, &traces), 1, 2, &traces);
+        let none = AgentModel::fit(&replay(&[0, 0], 2, &traces), 1, 2, &traces, None);
         let memoryless = none.plan(1.0, none.longest, 0.0, &[0]);
+        // Valued as planned, without doubt, the plan is worth what planning said.
+        assert_eq!(m.evaluate(&plan.act, 1.0, m.longest), plan.value);
+        // The two halves of the episodes share the steps.
+        let halves = [0, 1].map(|h| AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces, Some(h)));
+        let visits = |h: usize| halves[h].visits.iter().sum::<u32>();
+        assert_eq!((visits(0), visits(1)), (24, 24));
         assert!(plan.value > memoryless.value, "{} vs {}", plan.value, memoryless.value);
     }
 
@@ -230,13 +272,13 @@ mod tests {
     fn pessimism_lowers_what_few_steps_support_and_unvisited_nodes_keep_their_fallback() {
         let traces = echo_traces();
         let window = [0, 1, 2, 3, 0, 1, 2, 3];
-        let m = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces);
+        let m = AgentModel::fit(&replay(&window, 2, &traces), 4, 2, &traces, None);
         let bold = m.plan(1.0, 3, 0.0, &[0; 4]).value;
         let careful = m.plan(1.0, 3, 1.0, &[0; 4]).value;
         assert!(careful < bold);
         // A memory of three nodes whose third is never entered keeps its fallback decision there.
         let three = [0, 1, 0, 1, 2, 2];
-        let m3 = AgentModel::fit(&replay(&three, 2, &traces), 3, 2, &traces);
+        let m3 = AgentModel::fit(&replay(&three, 2, &traces), 3, 2, &traces, None);
         assert_eq!(m3.plan(1.0, 3, 0.0, &[0, 0, 1]).act[2], 1);
     }
 }

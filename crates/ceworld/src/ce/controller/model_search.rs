@@ -8,7 +8,8 @@
 //! with `explore` of its decisions drawn again. (2) Searches memories on the model, with no step
 //! of the world: `rounds` rounds of the cross-entropy method (model §3) over the laws of a
 //! successor table, each drawing `memories` tables, replaying every kept step through each
-//! ([`AgentModel`]), planning its decisions and ranking it by the model's value, the best `rho`
+//! ([`AgentModel`]), planning its decisions on half the kept episodes and ranking it by the plan's
+//! value on the model of the other half, the best `rho`
 //! refitting the laws; and every lens of at most `lens_features` features ([`Lens`]: lags of the
 //! last `window` observations, the first, the decision before) planned and valued the same way.
 //! (3) Confirms: the `confirm` best plans of each family and the best so far are valued on the
@@ -248,8 +249,10 @@ impl Stepped for ModelSearch {
         // have grown since the last iteration's laws were fitted on fewer steps.
         self.laws.inject(c.explore);
         let explored = self.explore(world, c, iteration, &mut rng, spent)?;
-        let (tables, elite) = self.search(world, c, &mut rng);
-        let lenses = self.lenses(world, c);
+        let shape = world.shape();
+        let sizes = Sizes { y: shape.observations, a: shape.decisions };
+        let (tables, elite) = self.search(sizes, c, &mut rng);
+        let lenses = self.lenses(sizes, c);
         let successful =
             if self.best.is_none() || !spent() { self.confirm(world, c, iteration, [tables, lenses])? } else { false };
         let best = self.best.as_ref().map_or(f64::NEG_INFINITY, |b| b.value);
@@ -272,13 +275,58 @@ impl Stepped for ModelSearch {
     }
 }
 
-/// A memory with the decisions planned on its model, and the model's value of it.
+/// A candidate memory: a successor table (its `next`) or a lens.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Plan {
-    /// The memory with its planned decisions.
-    pub controller: Controller,
-    /// The model's mean value of the kept episodes' starts.
-    pub value: f64,
+enum Memory {
+    Table(Vec<u32>),
+    Lens(Lens),
+}
+
+impl Memory {
+    /// The agent state of every kept step, and how many states there are.
+    fn replay(&self, sizes: Sizes, traces: &Traces) -> (Vec<u32>, usize) {
+        match self {
+            Memory::Table(next) => (replay(next, sizes.y, traces), next.len() / sizes.y),
+            Memory::Lens(lens) => (lens.replay(sizes, traces), lens.states(sizes)),
+        }
+    }
+
+    /// The controller that decides `act[s]` in agent state `s`.
+    fn controller(&self, act: Vec<u32>, sizes: Sizes) -> Controller {
+        match self {
+            Memory::Table(next) => Controller::moore(act, next.clone()),
+            Memory::Lens(lens) => lens.controller(&act, sizes),
+        }
+    }
+
+    /// Plans on the model of the kept episodes of one parity and values the plan on the model
+    /// of the others (a memory of many states fits its own steps well and is valued on others);
+    /// a state never reached decides as `fallback`.
+    fn rank(&self, sizes: Sizes, traces: &Traces, pessimism: f64, fallback: &[u32]) -> Plan {
+        let (states, n) = self.replay(sizes, traces);
+        let [fit, held_out] = [0, 1].map(|h| AgentModel::fit(&states, n, sizes.a, traces, Some(h)));
+        let planned = fit.plan(traces.gamma, fit.longest, pessimism, fallback);
+        let value = held_out.evaluate(&planned.act, traces.gamma, held_out.longest.max(fit.longest));
+        Plan { controller: self.controller(planned.act.clone(), sizes), memory: self.clone(), act: planned.act, value }
+    }
+
+    /// The controller planned on the model of every kept episode.
+    fn plan(&self, sizes: Sizes, traces: &Traces, pessimism: f64, fallback: &[u32]) -> Controller {
+        let (states, n) = self.replay(sizes, traces);
+        let model = AgentModel::fit(&states, n, sizes.a, traces, None);
+        self.controller(model.plan(traces.gamma, model.longest, pessimism, fallback).act, sizes)
+    }
+}
+
+/// A memory with the decisions planned on half the kept episodes, and their value on the model
+/// of the other half.
+#[derive(Clone, Debug, PartialEq)]
+struct Plan {
+    memory: Memory,
+    controller: Controller,
+    /// The decision of each agent state.
+    act: Vec<u32>,
+    value: f64,
 }
 
 /// `c` with each of its decisions drawn again, uniformly among `actions`, with probability `rate`.
@@ -346,9 +394,7 @@ impl ModelSearch {
 
     /// The rounds of the cross-entropy method over the memory's laws on the model of the kept
     /// steps: the last round's plans, best first, and the model's values of its elite.
-    fn search(&mut self, world: &dyn Episodes, c: &ModelSearchConfig, rng: &mut EngineRng) -> (Vec<Plan>, Vec<f64>) {
-        let shape = world.shape();
-        let (y1, a, gamma) = (shape.observations, shape.decisions, self.traces.gamma);
+    fn search(&mut self, sizes: Sizes, c: &ModelSearchConfig, rng: &mut EngineRng) -> (Vec<Plan>, Vec<f64>) {
         let elite_size = ((c.rho * c.memories as f64).ceil() as usize).clamp(1, c.memories);
         let (mut plans, mut elite) = (Vec::new(), Vec::new());
         for _ in 0..c.rounds {
@@ -356,11 +402,7 @@ impl ModelSearch {
             let traces = &self.traces;
             plans = memories
                 .par_iter()
-                .map(|m| {
-                    let model = AgentModel::fit(&replay(&m.next, y1, traces), m.nodes(), a, traces);
-                    let planned = model.plan(gamma, model.longest, c.pessimism, &m.act);
-                    Plan { controller: Controller::moore(planned.act, m.next.clone()), value: planned.value }
-                })
+                .map(|m| Memory::Table(m.next.clone()).rank(sizes, traces, c.pessimism, &m.act))
                 .collect();
             // Best first; equal values keep the order drawn.
             plans.sort_by(|p, q| q.value.total_cmp(&p.value));
@@ -372,21 +414,14 @@ impl ModelSearch {
     }
 
     /// Every lens ([`Lens::all`]) planned and valued on the model of the kept steps, best first.
-    fn lenses(&self, world: &dyn Episodes, c: &ModelSearchConfig) -> Vec<Plan> {
+    fn lenses(&self, sizes: Sizes, c: &ModelSearchConfig) -> Vec<Plan> {
         if c.window == 0 {
             return Vec::new();
         }
-        let shape = world.shape();
-        let (sizes, traces) = (Sizes { y: shape.observations, a: shape.decisions }, &self.traces);
         let lenses = Lens::all(c.window, c.lens_features, sizes, c.lens_nodes);
         let mut plans: Vec<Plan> = lenses
             .par_iter()
-            .map(|&lens| {
-                let states = lens.states(sizes);
-                let model = AgentModel::fit(&lens.replay(sizes, traces), states, sizes.a, traces);
-                let planned = model.plan(traces.gamma, model.longest, c.pessimism, &vec![0; states]);
-                Plan { controller: lens.controller(&planned.act, sizes), value: planned.value }
-            })
+            .map(|&lens| Memory::Lens(lens).rank(sizes, &self.traces, c.pessimism, &vec![0; lens.states(sizes)]))
             .collect();
         plans.sort_by(|p, q| q.value.total_cmp(&p.value));
         plans
@@ -402,6 +437,8 @@ impl ModelSearch {
         iteration: usize,
         families: [Vec<Plan>; F],
     ) -> Result<bool> {
+        let shape = world.shape();
+        let sizes = Sizes { y: shape.observations, a: shape.decisions };
         let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
         for plans in families {
@@ -410,8 +447,10 @@ impl ModelSearch {
                 if taken == c.confirm {
                     break;
                 }
-                if !few.contains(&p.controller) && held != Some(&p.controller) {
-                    few.push(p.controller);
+                // Ranked on half the steps, planned on all of them.
+                let controller = p.memory.plan(sizes, &self.traces, c.pessimism, &p.act);
+                if !few.contains(&controller) && held != Some(&controller) {
+                    few.push(controller);
                     taken += 1;
                 }
             }
