@@ -87,6 +87,11 @@ def test_the_search_of_memories_on_the_model_of_every_step_learns_a_latch_within
     assert 0 < result.env_steps <= 20_000 + 16 * 4 * maze.horizon
     assert result.evaluation.mean == pytest.approx(1.0)
     assert result.policy.provenance["method"] == "model-search"
-    # A world run by the engine does not give its steps' rewards back yet: refused, naming why.
-    with pytest.raises(cehmm.InvalidArgumentError, match="sum of its steps' rewards, or one run by the engine"):
-        cehmm.run("model-search", cehmm.PomdpWorld(TIGER, horizon=20), max_iterations=1, progress=False)
+    # A world whose value is of the whole episode (the paper's target tracking) is refused,
+    # naming why.
+    with pytest.raises(cehmm.InvalidArgumentError, match="not the \\(discounted\\) sum of its steps' rewards"):
+        cehmm.run("model-search", cehmm.TargetTracking(case=1), max_iterations=1, progress=False)
+    # A .pomdp file's world gives its steps' rewards: on tiger, 10,000 steps learn to open a door
+    # (listening forever is worth -(1 - 0.95^20) / 0.05 = -12.83 over 20 steps).
+    tiger = cehmm.run("model-search", cehmm.PomdpWorld(TIGER, horizon=20), max_env_steps=10_000, progress=False)
+    assert tiger.evaluation.mean > -11

@@ -148,3 +148,40 @@ fn the_registry_names_the_file_and_its_hash() {
     let e = AnyWorld::from_json(&bad).unwrap_err();
     assert!(matches!(e, Error::ModelFormat(_)) && e.to_string().contains("ejs7.POMDP:22:1"), "{e}");
 }
+
+#[test]
+fn a_file_s_world_gives_its_steps_rewards_to_a_learner_that_keeps_them() {
+    use ceworld::episodes::credit::StepCredit;
+    use ceworld::episodes::{Episodes, Streams};
+    use ceworld::policy::controller::Controller;
+    use ceworld::rng::Purpose;
+
+    let world = tiger(6);
+    // Listen twice, then open the left door; and listen always (three nodes, Moore).
+    let controllers = [
+        Controller::moore(vec![LISTEN as u32, LISTEN as u32, 1], vec![1, 1, 1, 2, 2, 2, 0, 0, 0]),
+        Controller::moore(vec![LISTEN as u32], vec![0; 3]),
+    ];
+    let streams = Streams { seed: 7, purpose: Purpose::Controllers, iteration: 0 };
+    let (mut plain, mut kept) = (vec![0.0; 2 * 50], vec![0.0; 2 * 50]);
+    let steps = world.run_controllers(&controllers, streams, 50, &mut plain).unwrap();
+    let mut credit = StepCredit::traced(2, StepCredit::rows_of(&controllers[0]));
+    let (traced, credited) = world.run_controllers_credited(&controllers, streams, 50, &mut kept, &mut credit).unwrap();
+    // The same episodes, and their steps kept: each episode's rewards, discounted, are its value.
+    assert_eq!((kept.clone(), traced, credited), (plain, steps, true));
+    let traces = credit.traces.unwrap();
+    assert_eq!((traces.steps(), traces.gamma), (steps as usize, 0.95));
+    for (episode, value) in traces.episodes().zip(&kept) {
+        let sum: f64 = episode.clone().rev().fold(0.0, |later, t| traces.rew[t] + 0.95 * later);
+        assert!((sum - value).abs() < 1e-9, "{sum} vs {value}");
+        // Listening costs 1 a step.
+        assert!(
+            episode.clone().filter(|&t| traces.dec[t] == LISTEN as u32).all(|t| (traces.rew[t] + 1.0).abs() < 1e-9)
+        );
+    }
+    // Credit without its steps kept is left as it was (the search of §8 sees no change).
+    let mut plain_credit = StepCredit::new(2, StepCredit::rows_of(&controllers[0]));
+    let (_, credited) =
+        world.run_controllers_credited(&controllers, streams, 50, &mut kept, &mut plain_credit).unwrap();
+    assert!(!credited);
+}

@@ -20,7 +20,7 @@ use crate::rng::{EngineRng, Purpose, stream, stream_key};
 use crate::world::World;
 use crate::world::pomdp::PomdpWorld;
 use credit::StepCredit;
-use run::{run_controller, run_recorded, run_with};
+use run::{run_controller, run_controller_steps, run_recorded, run_with};
 
 /// The random streams of a set of episodes: episode `k` draws from `(seed, purpose, iteration, k)`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -328,6 +328,34 @@ impl<W: World> Episodes for W {
             })
             .sum();
         Ok(steps)
+    }
+
+    /// Where the world gives its steps' rewards ([`World::discount`]) and `credit` keeps the
+    /// steps (model §10), runs as [`Episodes::run_controllers`] and keeps them; elsewhere adds
+    /// no credit.
+    fn run_controllers_credited(
+        &self,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> Result<(u64, bool)> {
+        let Some(gamma) = self.discount().filter(|_| credit.traces.is_some()) else {
+            return self.run_controllers(controllers, streams, episodes, values).map(|steps| (steps, false));
+        };
+        let runs: Vec<(f64, Vec<(usize, f64)>)> = (0..values.len())
+            .into_par_iter()
+            .with_min_len(8)
+            .map(|i| run_controller_steps(self, &controllers[i / episodes], &mut streams.episode(i % episodes), gamma))
+            .collect();
+        let (n_obs, mut steps) = (self.n_observations(), 0);
+        for (i, (value, kept)) in runs.into_iter().enumerate() {
+            values[i] = value;
+            steps += kept.len() as u64;
+            credit.add(i / episodes, &controllers[i / episodes], n_obs, kept.into_iter(), gamma, value);
+        }
+        Ok((steps, true))
     }
 
     fn tabular(&self) -> Option<&PomdpWorld> {

@@ -113,6 +113,18 @@ where
 /// number of steps run: the randomness of `rng` is the world's alone.
 #[inline]
 pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> (f64, usize) {
+    run_controller_with(world, controller, rng, |_, _| {})
+}
+
+/// [`run_controller`], calling `seen(y, state)` after each step with its observation and the
+/// state the step left.
+#[inline]
+pub fn run_controller_with<W: World>(
+    world: &W,
+    controller: &Controller,
+    rng: &mut EngineRng,
+    mut seen: impl FnMut(usize, &W::State),
+) -> (f64, usize) {
     let n_obs = world.n_observations();
     let mut state = world.reset(rng);
     let mut node = 0u32;
@@ -121,12 +133,31 @@ pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut En
         let y = world.observe(&state, rng);
         let d = controller.step(&mut node, y, n_obs);
         world.step(&mut state, d as usize, rng);
+        seen(y, &state);
         steps = t + 1;
         if world.done(&state) {
             break;
         }
     }
     (world.reward(&state), steps)
+}
+
+/// [`run_controller`] keeping each step's (observation, reward), for a world whose reward is
+/// the discounted sum of its steps' (`gamma`, [`World::discount`]): a step's reward is what it
+/// added to the sum, over its discount.
+pub fn run_controller_steps<W: World>(
+    world: &W,
+    controller: &Controller,
+    rng: &mut EngineRng,
+    gamma: f64,
+) -> (f64, Vec<(usize, f64)>) {
+    let (mut kept, mut sum, mut factor) = (Vec::new(), 0.0, 1.0);
+    let (value, _) = run_controller_with(world, controller, rng, |y, state| {
+        let now = world.reward(state);
+        kept.push((y, if factor > 0.0 { (now - sum) / factor } else { 0.0 }));
+        (sum, factor) = (now, factor * gamma);
+    });
+    (value, kept)
 }
 
 #[cfg(test)]

@@ -34,6 +34,12 @@ pub trait World: Sync {
     fn step(&self, state: &mut Self::State, decision: usize, rng: &mut EngineRng);
     /// The episode's reward `V`, read after the last step.
     fn reward(&self, state: &Self::State) -> f64;
+    /// `Some(γ)` where `reward`, read after any step, is the sum of the steps' rewards so far
+    /// discounted by `γ` (`r_1 + γ r_2 + ...`): then each step's reward is known, and a learner
+    /// may keep it (model §10). `None` (the default) where the reward is of the whole episode.
+    fn discount(&self) -> Option<f64> {
+        None
+    }
     /// Whether the episode has ended (read after each step): it stops there, before the horizon,
     /// and the optimiser counts only the steps it ran (model §1). By default an episode always
     /// runs to the horizon.

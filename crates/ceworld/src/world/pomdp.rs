@@ -396,6 +396,10 @@ impl World for PomdpWorld {
         state.total
     }
 
+    fn discount(&self) -> Option<f64> {
+        Some(self.tables.gamma)
+    }
+
     fn state_labels(&self) -> Vec<&'static str> {
         vec!["state", "observation"]
     }

@@ -1,9 +1,10 @@
-//! Lenses (model §10): memories that hold the last observations of an episode and its first, and
-//! whose agent state is the part of them a decision looks at: some lags of a window (lag 0 the
-//! current observation) and, or not, the first observation. A lens's agent states are few (a
-//! task that repeats the card four steps back needs one lag: as many states as cards), so its
-//! model is learnt from few steps, while the machine that carries it holds every observation up
-//! to its oldest lag. Every lens of a few features is ranked on the model of the same steps.
+//! Lenses (model §10): memories that hold the last steps of an episode (their observations and
+//! decisions) and its first observation, and whose agent state is the part of them a decision
+//! looks at: some lags of a window (observation lag 0 the current one) and, or not, the first
+//! observation. A lens's agent states are few (a task that repeats the card four steps back needs
+//! one lag: as many states as cards), so its model is learnt from few steps, while the machine
+//! that carries it holds every observation and decision up to its oldest lag. Every lens of a few
+//! features is ranked on the model of the same steps.
 
 use serde::{Deserialize, Serialize};
 
@@ -15,10 +16,10 @@ use crate::policy::controller::Controller;
 pub struct Lens {
     /// Bit `j`: the observation `j` steps before the current one (bit 0 the current one).
     pub lags: u32,
+    /// Bit `j` (from 1): the decision `j` steps before.
+    pub decisions: u32,
     /// The episode's first observation.
     pub first: bool,
-    /// The decision of the step before.
-    pub decision: bool,
 }
 
 /// A world's sizes as a lens sees them.
@@ -30,20 +31,57 @@ pub struct Sizes {
     pub a: usize,
 }
 
+/// The highest bit set (0 where none).
+fn oldest(bits: u32) -> usize {
+    if bits == 0 { 0 } else { 31 - bits.leading_zeros() as usize }
+}
+
+/// Every subset of `0..n` of at most `most` members, each in increasing order.
+fn subsets(n: usize, most: usize) -> Vec<Vec<usize>> {
+    let mut out = vec![Vec::new()];
+    let mut from = 0;
+    for _ in 0..most {
+        let grown: Vec<Vec<usize>> = out[from..]
+            .iter()
+            .flat_map(|s| {
+                let start = s.last().map_or(0, |&k| k + 1);
+                (start..n).map(move |k| [s.as_slice(), &[k]].concat())
+            })
+            .collect();
+        from = out.len();
+        out.extend(grown);
+    }
+    out
+}
+
+/// The bits set, lowest first.
+fn set(bits: u32) -> impl Iterator<Item = usize> {
+    (0..32).filter(move |j| bits >> j & 1 == 1)
+}
+
 impl Lens {
-    /// Every lens of at most `most` features (lags below `window`, the first observation, the
-    /// decision before) whose machine has at most `max_nodes` nodes, fewest features first.
+    /// Every lens of at most `most` features (observations of lags below `window`, decisions of
+    /// lags 1 to `window - 1`, the first observation) whose machine has at most `max_nodes`
+    /// nodes, fewest features first.
     pub fn all(window: usize, most: usize, sizes: Sizes, max_nodes: usize) -> Vec<Lens> {
         let window = window.min(31);
-        let mut lenses: Vec<Lens> = (0u32..1 << window)
-            .flat_map(|lags| {
-                [(false, false), (true, false), (false, true), (true, true)].map(|(first, decision)| Lens {
-                    lags,
-                    first,
-                    decision,
-                })
-            })
-            .filter(|l| l.features() <= most && l.nodes(sizes) <= max_nodes as u128)
+        // Feature k: observation lag k (k < window), decision lag k - window + 1, the first.
+        let features = 2 * window;
+        let lens_of = |chosen: &[usize]| {
+            let mut l = Lens { lags: 0, decisions: 0, first: false };
+            for &k in chosen {
+                match k {
+                    k if k < window => l.lags |= 1 << k,
+                    k if k + 1 < features => l.decisions |= 1 << (k - window + 1),
+                    _ => l.first = true,
+                }
+            }
+            l
+        };
+        let mut lenses: Vec<Lens> = subsets(features, most)
+            .iter()
+            .map(|s| lens_of(s))
+            .filter(|l| l.nodes(sizes) <= max_nodes as u128)
             .collect();
         lenses.sort_by_key(|l| l.features());
         lenses
@@ -51,46 +89,47 @@ impl Lens {
 
     /// The features looked at.
     pub fn features(self) -> usize {
-        self.lags.count_ones() as usize + usize::from(self.first) + usize::from(self.decision)
+        (self.lags.count_ones() + self.decisions.count_ones()) as usize + usize::from(self.first)
     }
 
-    /// Past observations the machine holds: the oldest lag looked at.
-    pub fn depth(self) -> usize {
-        if self.lags == 0 { 0 } else { 31 - self.lags.leading_zeros() as usize }
-    }
-
-    /// Nodes of the machine ([`Lens::controller`]): each past observation held, or none yet, and
-    /// the first observation and the decision before, or none yet, where they are looked at.
+    /// Nodes of the machine ([`Lens::controller`]): each past observation and decision held, or
+    /// none yet, and the first observation, or none yet, where it is looked at.
     pub fn nodes(self, sizes: Sizes) -> u128 {
-        let symbols = sizes.y as u128 + 1;
-        symbols
-            .saturating_pow(self.depth() as u32)
-            .saturating_mul(if self.first { symbols } else { 1 })
-            .saturating_mul(if self.decision { sizes.a as u128 + 1 } else { 1 })
+        let (y, a) = (sizes.y as u128 + 1, sizes.a as u128 + 1);
+        y.saturating_pow(oldest(self.lags) as u32)
+            .saturating_mul(a.saturating_pow(oldest(self.decisions) as u32))
+            .saturating_mul(if self.first { y } else { 1 })
     }
 
     /// Agent states: the values of the features looked at (a past observation or decision may be
     /// none yet).
     pub fn states(self, sizes: Sizes) -> usize {
         let Sizes { y, a } = sizes;
-        (0..32).filter(|j| self.lags >> j & 1 == 1).map(|j| if j == 0 { y } else { y + 1 }).product::<usize>()
+        set(self.lags).map(|j| if j == 0 { y } else { y + 1 }).product::<usize>()
+            * (a + 1).pow(self.decisions.count_ones())
             * if self.first { y } else { 1 }
-            * if self.decision { a + 1 } else { 1 }
     }
 
     /// The agent state of a step that observes `current`, with `past(j)` the observation `j`
-    /// steps before plus one (0: none, before the episode's start), the episode's `first` and
-    /// `before` the decision of the step before plus one (0 at the first step).
-    fn state(self, sizes: Sizes, current: usize, past: impl Fn(usize) -> usize, first: usize, before: usize) -> usize {
+    /// steps before plus one and `before(j)` the decision `j` steps before plus one (0: none,
+    /// before the episode's start), and the episode's `first`.
+    fn state(
+        self,
+        sizes: Sizes,
+        current: usize,
+        past: impl Fn(usize) -> usize,
+        before: impl Fn(usize) -> usize,
+        first: usize,
+    ) -> usize {
         let Sizes { y, a } = sizes;
         let mut s = 0;
-        for j in (0..32).filter(|j| self.lags >> j & 1 == 1) {
+        for j in set(self.lags) {
             s = if j == 0 { s * y + current } else { s * (y + 1) + past(j) };
         }
-        if self.first {
-            s = s * y + first;
+        for j in set(self.decisions) {
+            s = s * (a + 1) + before(j);
         }
-        if self.decision { s * (a + 1) + before } else { s }
+        if self.first { s * y + first } else { s }
     }
 
     /// The agent state of every kept step.
@@ -99,36 +138,37 @@ impl Lens {
         for episode in traces.episodes() {
             let first = traces.obs[episode.start] as usize;
             for t in episode.clone() {
-                let past = |j: usize| if t >= episode.start + j { traces.obs[t - j] as usize + 1 } else { 0 };
-                let before = if t > episode.start { traces.dec[t - 1] as usize + 1 } else { 0 };
-                states.push(self.state(sizes, traces.obs[t] as usize, past, first, before) as u32);
+                let inside = |j: usize| t >= episode.start + j;
+                let past = |j: usize| if inside(j) { traces.obs[t - j] as usize + 1 } else { 0 };
+                let before = |j: usize| if inside(j) { traces.dec[t - j] as usize + 1 } else { 0 };
+                states.push(self.state(sizes, traces.obs[t] as usize, past, before, first) as u32);
             }
         }
         states
     }
 
     /// The Mealy machine that decides `act[s]` in agent state `s`. Its node holds, plus one each
-    /// (0: none yet), the decision before where looked at (the lowest digit), the last `depth`
-    /// observations (the latest lowest) and the first where looked at (the highest), so that
-    /// node 0 is the start. `nodes(sizes)` must fit a `usize`.
+    /// (0: none yet), the last decisions up to the oldest lag looked at (the latest in the lowest
+    /// digit), then the last observations the same way, then the first where looked at (the
+    /// highest digit), so that node 0 is the start. `nodes(sizes)` must fit a `usize`.
     pub fn controller(self, act: &[u32], sizes: Sizes) -> Controller {
-        let (depth, symbols, y) = (self.depth(), sizes.y + 1, sizes.y);
-        let held = symbols.pow(depth as u32);
-        let decisions = if self.decision { sizes.a + 1 } else { 1 };
+        let (y, ys, a1) = (sizes.y, sizes.y + 1, sizes.a + 1);
+        let (obs_held, dec_held) = (ys.pow(oldest(self.lags) as u32), a1.pow(oldest(self.decisions) as u32));
         let nodes = self.nodes(sizes) as usize;
         let (mut on, mut next) = (Vec::with_capacity(nodes * y), Vec::with_capacity(nodes * y));
         for q in 0..nodes {
-            let (before, rest) = (q % decisions, q / decisions);
-            let (first, window) = (rest / held, rest % held);
-            let digit = |j: usize| window / symbols.pow(j as u32 - 1) % symbols;
+            let (decisions, rest) = (q % dec_held, q / dec_held);
+            let (first, window) = (rest / obs_held, rest % obs_held);
+            let past = |j: usize| window / ys.pow(j as u32 - 1) % ys;
+            let before = |j: usize| decisions / a1.pow(j as u32 - 1) % a1;
             for o in 0..y {
                 let first_now = if first == 0 { o + 1 } else { first };
-                let d = act[self.state(sizes, o, digit, first_now - 1, before)];
+                let d = act[self.state(sizes, o, past, before, first_now - 1)];
                 on.push(d);
-                let shifted = if depth == 0 { 0 } else { (window * symbols + o + 1) % held };
-                let rest = if self.first { first_now * held } else { 0 } + shifted;
-                let before = if self.decision { d as usize + 1 } else { 0 };
-                next.push((rest * decisions + before) as u32);
+                let window = (window * ys + o + 1) % obs_held;
+                let decisions = (decisions * a1 + d as usize + 1) % dec_held;
+                let first_held = if self.first { first_now * obs_held } else { 0 };
+                next.push(((first_held + window) * dec_held + decisions) as u32);
             }
         }
         Controller::mealy(on, next, y)
@@ -156,20 +196,22 @@ mod tests {
     #[test]
     fn lenses_are_counted_by_their_features_and_machines() {
         let all = Lens::all(3, 2, SIZES, usize::MAX);
-        // Lags 0, 1, 2, the first and the decision before: 1 + 5 + 10 lenses of at most two.
-        assert_eq!(all.len(), 16);
-        assert_eq!(all[0], Lens { lags: 0, first: false, decision: false });
-        let l = Lens { lags: 0b101, first: true, decision: true };
-        assert_eq!((l.features(), l.depth(), l.nodes(SIZES), l.states(SIZES)), (4, 2, 108, 48));
+        // Observations of lags 0, 1, 2, decisions of lags 1, 2, the first: 1 + 6 + 15 lenses
+        // of at most two features.
+        assert_eq!(all.len(), 22);
+        assert_eq!(all[0], Lens { lags: 0, decisions: 0, first: false });
+        let l = Lens { lags: 0b101, decisions: 0b10, first: true };
+        // Nodes: two past observations, one decision, the first (3·3 · 4 · 3); states 2·3 · 4 · 2.
+        assert_eq!((l.features(), l.nodes(SIZES), l.states(SIZES)), (4, 108, 48));
         // A lag of 2 holds two past observations: 9 nodes, more than 8.
-        assert!(Lens::all(3, 3, SIZES, 8).iter().all(|l| l.depth() < 2));
+        assert!(Lens::all(3, 3, SIZES, 8).iter().all(|l| oldest(l.lags) < 2 && oldest(l.decisions) < 2));
     }
 
     #[test]
     fn a_lens_sees_the_lag_and_the_first_observation_it_names() {
         let traces = traces();
         // The observation one step back (0 none, else y + 1), beside the first one.
-        let l = Lens { lags: 0b10, first: true, decision: false };
+        let l = Lens { lags: 0b10, decisions: 0, first: true };
         let states = l.replay(SIZES, &traces);
         let expected: Vec<u32> = (0..8usize)
             .flat_map(|s| {
@@ -179,7 +221,7 @@ mod tests {
             .collect();
         assert_eq!(states, expected);
         // The decision before (0 none, else d + 1): the echo decides what it observes.
-        let l = Lens { lags: 0, first: false, decision: true };
+        let l = Lens { lags: 0, decisions: 0b10, first: false };
         let expected: Vec<u32> = (0..8usize)
             .flat_map(|s| {
                 let obs = [s >> 2 & 1, s >> 1 & 1, s & 1];

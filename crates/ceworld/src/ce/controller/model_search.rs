@@ -11,7 +11,7 @@
 //! ([`AgentModel`]), planning its decisions on half the kept episodes and ranking it by the plan's
 //! value on the model of the other half, the best `rho`
 //! refitting the laws; and every lens of at most `lens_features` features ([`Lens`]: lags of the
-//! last `window` observations, the first, the decision before) planned and valued the same way.
+//! last `window` observations and decisions, the first observation) planned and valued the same way.
 //! (3) Confirms: the `confirm` best plans of each family and the best so far are valued on the
 //! iteration's selection episodes; the best plan replaces the best so far where it beats it on
 //! them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
@@ -68,7 +68,7 @@ pub struct ModelSearchConfig {
     pub smoothing: f64,
     /// Weight of the doubt on a (node, decision) seen rarely ([`AgentModel::plan`]).
     pub pessimism: f64,
-    /// Plans confirmed on the world per iteration.
+    /// Plans of each family (tables, lenses) confirmed on the world per iteration.
     pub confirm: usize,
     /// Selection episodes each confirmed plan is valued on.
     pub select_episodes: usize,
@@ -76,7 +76,7 @@ pub struct ModelSearchConfig {
     pub memory_steps: usize,
     /// Lags the lenses look at, the current observation included (0: no lenses).
     pub window: usize,
-    /// Features (lags, the first observation) a lens looks at, at most.
+    /// Features (observation and decision lags, the first observation) a lens looks at, at most.
     pub lens_features: usize,
     /// Nodes of a lens's machine, at most.
     pub lens_nodes: usize,
@@ -375,9 +375,9 @@ impl ModelSearch {
             let traces = credit.traces.take().filter(|_| credited).ok_or_else(|| {
                 Error::invalid(
                     "world",
-                    "a world whose value is not the (discounted) sum of its steps' rewards, or one run by the \
-                     engine (expected a world in Python or Gymnasium's, which gives its steps' rewards: \
-                     model-search learns from every step)",
+                    "a world whose value is not the (discounted) sum of its steps' rewards (expected one that \
+                     gives them, as a .pomdp file's, a world in Python or Gymnasium's: model-search learns \
+                     from every step)",
                 )
             })?;
             if traces.ends.len() != values.len() {
