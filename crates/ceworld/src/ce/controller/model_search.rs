@@ -68,6 +68,9 @@ pub struct ModelSearchConfig {
     pub smoothing: f64,
     /// Weight of the doubt on a (node, decision) seen rarely ([`AgentModel::plan`]).
     pub pessimism: f64,
+    /// Backups of the planning and the ranking per step of the longest kept episode (model §10:
+    /// where a memory does not hold the time, the model's episodes are spread out in length).
+    pub lookahead: usize,
     /// Plans of each family (tables, lenses) confirmed on the world per iteration.
     pub confirm: usize,
     /// Selection episodes each confirmed plan is valued on.
@@ -101,6 +104,7 @@ impl Default for ModelSearchConfig {
             rho: 0.05,
             smoothing: 0.5,
             pessimism: 0.1,
+            lookahead: 1,
             confirm: 1,
             select_episodes: 20,
             memory_steps: 200_000,
@@ -128,6 +132,7 @@ impl Settings for ModelSearchConfig {
             "rho" => self.rho = s.real()?,
             "smoothing" => self.smoothing = s.real()?,
             "pessimism" => self.pessimism = s.real()?,
+            "lookahead" => self.lookahead = s.count()?,
             "confirm" => self.confirm = s.count()?,
             "select_episodes" => self.select_episodes = s.count()?,
             "memory_steps" => self.memory_steps = s.count()?,
@@ -189,6 +194,7 @@ impl Stepped for ModelSearch {
             ("select_episodes", c.select_episodes),
             ("memory_steps", c.memory_steps),
             ("lens_nodes", c.lens_nodes),
+            ("lookahead", c.lookahead),
         ] {
             if value == 0 {
                 return Err(Error::invalid(name, "0 (expected at least 1)"));
@@ -302,19 +308,21 @@ impl Memory {
     /// Plans on the model of the kept episodes of one parity and values the plan on the model
     /// of the others (a memory of many states fits its own steps well and is valued on others);
     /// a state never reached decides as `fallback`.
-    fn rank(&self, sizes: Sizes, traces: &Traces, pessimism: f64, fallback: &[u32]) -> Plan {
+    fn rank(&self, sizes: Sizes, traces: &Traces, c: &ModelSearchConfig, fallback: &[u32]) -> Plan {
         let (states, n) = self.replay(sizes, traces);
         let [fit, held_out] = [0, 1].map(|h| AgentModel::fit(&states, n, sizes.a, traces, Some(h)));
-        let planned = fit.plan(traces.gamma, fit.longest, pessimism, fallback);
-        let value = held_out.evaluate(&planned.act, traces.gamma, held_out.longest.max(fit.longest));
+        let backups = c.lookahead.saturating_mul(held_out.longest.max(fit.longest));
+        let planned = fit.plan(traces.gamma, backups, c.pessimism, fallback);
+        let value = held_out.evaluate(&planned.act, traces.gamma, backups);
         Plan { controller: self.controller(planned.act.clone(), sizes), memory: self.clone(), act: planned.act, value }
     }
 
     /// The controller planned on the model of every kept episode.
-    fn plan(&self, sizes: Sizes, traces: &Traces, pessimism: f64, fallback: &[u32]) -> Controller {
+    fn plan(&self, sizes: Sizes, traces: &Traces, c: &ModelSearchConfig, fallback: &[u32]) -> Controller {
         let (states, n) = self.replay(sizes, traces);
         let model = AgentModel::fit(&states, n, sizes.a, traces, None);
-        self.controller(model.plan(traces.gamma, model.longest, pessimism, fallback).act, sizes)
+        let backups = c.lookahead.saturating_mul(model.longest);
+        self.controller(model.plan(traces.gamma, backups, c.pessimism, fallback).act, sizes)
     }
 }
 
@@ -400,10 +408,7 @@ impl ModelSearch {
         for _ in 0..c.rounds {
             let memories: Vec<Controller> = (0..c.memories).map(|_| self.laws.draw(rng)).collect();
             let traces = &self.traces;
-            plans = memories
-                .par_iter()
-                .map(|m| Memory::Table(m.next.clone()).rank(sizes, traces, c.pessimism, &m.act))
-                .collect();
+            plans = memories.par_iter().map(|m| Memory::Table(m.next.clone()).rank(sizes, traces, c, &m.act)).collect();
             // Best first; equal values keep the order drawn.
             plans.sort_by(|p, q| q.value.total_cmp(&p.value));
             let chosen: Vec<&Controller> = plans[..elite_size].iter().map(|p| &p.controller).collect();
@@ -421,7 +426,7 @@ impl ModelSearch {
         let lenses = Lens::all(c.window, c.lens_features, sizes, c.lens_nodes);
         let mut plans: Vec<Plan> = lenses
             .par_iter()
-            .map(|&lens| Memory::Lens(lens).rank(sizes, &self.traces, c.pessimism, &vec![0; lens.states(sizes)]))
+            .map(|&lens| Memory::Lens(lens).rank(sizes, &self.traces, c, &vec![0; lens.states(sizes)]))
             .collect();
         plans.sort_by(|p, q| q.value.total_cmp(&p.value));
         plans
@@ -448,7 +453,7 @@ impl ModelSearch {
                     break;
                 }
                 // Ranked on half the steps, planned on all of them.
-                let controller = p.memory.plan(sizes, &self.traces, c.pessimism, &p.act);
+                let controller = p.memory.plan(sizes, &self.traces, c, &p.act);
                 if !few.contains(&controller) && held != Some(&controller) {
                     few.push(controller);
                     taken += 1;
