@@ -242,10 +242,12 @@ def _warm_up(space: gym.Space, data: st.DataObject) -> Any:
 
 
 def _in_space(encoded: Any, value: Any) -> bool:
-    """Whether ``value`` is one the encoding must take: ``space.contains`` (a Box's list: its
-    numbers within the shape and the bounds, a list having no dtype)."""
+    """Whether ``value`` is one the encoding must take: ``space.contains``; a Box's list or array
+    of numbers, whatever its dtype (``Bins.check``): its numbers within the shape and the bounds,
+    whole numbers for an integer Box."""
     space = encoded.space
-    if isinstance(space, spaces.Box) and not isinstance(value, (np.ndarray, np.generic)):
+    numbers = not isinstance(value, (np.ndarray, np.generic)) or np.asarray(value).dtype.kind in "biuf"
+    if isinstance(space, spaces.Box) and numbers:
         try:
             x = np.asarray(value)
         except ValueError:
@@ -253,7 +255,8 @@ def _in_space(encoded: Any, value: Any) -> bool:
         if x.dtype.kind not in "biuf":
             return False
         x = x.astype(float)
-        return x.shape == space.shape and bool(np.all((x >= space.low) & (x <= space.high)))
+        whole = not np.issubdtype(space.dtype, np.integer) or bool(np.all(x == np.round(x)))
+        return x.shape == space.shape and whole and bool(np.all((x >= space.low) & (x <= space.high)))
     try:
         return bool(space.contains(value))
     except Exception:  # noqa: BLE001 - what contains() cannot read is not in the space

@@ -368,12 +368,14 @@ class Bins(Encoding):
             return
         # Its numbers, against the shape and the bounds, whatever their dtype: an environment
         # that returns float64 values for a float32 Box (a common slip, which Gymnasium's own
-        # checker only warns of) is read, as long as the values are in the space.
+        # checker only warns of) is read, as long as the values are in the space (whole numbers
+        # for an integer Box).
         read = _sizes.reals(value)
         if (
             read is None
             or read.shape != self.space.shape
             or not np.all((read >= self.space.low) & (read <= self.space.high))
+            or (np.issubdtype(self.space.dtype, np.integer) and not np.all(read == np.round(read)))
         ):
             self._refuse(value)
 

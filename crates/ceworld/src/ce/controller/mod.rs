@@ -35,7 +35,6 @@ use crate::error::Result;
 use crate::evaluate::mean;
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
-
 use bounds::check_policy_fits;
 pub use config::{
     ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
