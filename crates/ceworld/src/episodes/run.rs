@@ -225,4 +225,21 @@ mod tests {
         let policy = echo.to_hhmm(2, 2).unwrap();
         assert_eq!(run_with(&short, &policy, rng, |_, _, _, _, _| {}), 4.5);
     }
+
+    #[test]
+    fn a_controller_s_steps_are_kept_with_what_each_added_over_its_discount() {
+        let rng = &mut stream(0, Purpose::Evaluate, 0, 0);
+        // Node 0 forever, deciding 1: the steps add 0.5, 1.5, 0.5, 1.5 (the odd ones pay).
+        let stuck = Controller::moore(vec![1], vec![0; 2]);
+        let whole = Parity { stop: None };
+        let kept = |gamma: f64| run_controller_steps(&whole, &stuck, &mut rng.clone(), gamma);
+        assert_eq!(kept(1.0), (4.0, vec![(0, 0.5), (1, 1.5), (0, 0.5), (1, 1.5)]));
+        // Read as a sum discounted by 1/2: step t added r_t / 2^t.
+        assert_eq!(kept(0.5), (4.0, vec![(0, 0.5), (1, 3.0), (0, 2.0), (1, 12.0)]));
+        // Discounted to nothing after the first step: what the later steps added is not theirs.
+        assert_eq!(kept(0.0), (4.0, vec![(0, 0.5), (1, 0.0), (0, 0.0), (1, 0.0)]));
+        // An episode that stops keeps the steps it ran.
+        let (value, steps) = run_controller_steps(&Parity { stop: Some(3) }, &stuck, rng, 1.0);
+        assert_eq!((value, steps.len()), (2.5, 3));
+    }
 }
