@@ -259,8 +259,11 @@ impl Stepped for ModelSearch {
         let sizes = Sizes { y: shape.observations, a: shape.decisions };
         let (tables, elite) = self.search(sizes, c, &mut rng);
         let lenses = self.lenses(sizes, c);
-        let successful =
-            if self.best.is_none() || !spent() { self.confirm(world, c, iteration, [tables, lenses])? } else { false };
+        let successful = if self.best.is_none() || !spent() {
+            self.confirm(world, c, iteration, sizes, [tables, lenses])?
+        } else {
+            false
+        };
         let best = self.best.as_ref().map_or(f64::NEG_INFINITY, |b| b.value);
         Ok(IterationRecord {
             iteration,
@@ -314,7 +317,7 @@ impl Memory {
         let backups = c.lookahead.saturating_mul(held_out.longest.max(fit.longest));
         let planned = fit.plan(traces.gamma, backups, c.pessimism, fallback);
         let value = held_out.evaluate(&planned.act, traces.gamma, backups);
-        Plan { controller: self.controller(planned.act.clone(), sizes), memory: self.clone(), act: planned.act, value }
+        Plan { memory: self.clone(), act: planned.act, value }
     }
 
     /// The controller planned on the model of every kept episode.
@@ -331,7 +334,6 @@ impl Memory {
 #[derive(Clone, Debug, PartialEq)]
 struct Plan {
     memory: Memory,
-    controller: Controller,
     /// The decision of each agent state.
     act: Vec<u32>,
     value: f64,
@@ -411,7 +413,10 @@ impl ModelSearch {
             plans = memories.par_iter().map(|m| Memory::Table(m.next.clone()).rank(sizes, traces, c, &m.act)).collect();
             // Best first; equal values keep the order drawn.
             plans.sort_by(|p, q| q.value.total_cmp(&p.value));
-            let chosen: Vec<&Controller> = plans[..elite_size].iter().map(|p| &p.controller).collect();
+            // The elite as controllers (a table's plan; lenses are not refitted).
+            let chosen: Vec<Controller> =
+                plans[..elite_size].iter().map(|p| p.memory.controller(p.act.clone(), sizes)).collect();
+            let chosen: Vec<&Controller> = chosen.iter().collect();
             self.laws.refit(&chosen, None, c.smoothing);
             elite = plans[..elite_size].iter().map(|p| p.value).collect();
         }
@@ -440,10 +445,9 @@ impl ModelSearch {
         world: &dyn Episodes,
         c: &ModelSearchConfig,
         iteration: usize,
+        sizes: Sizes,
         families: [Vec<Plan>; F],
     ) -> Result<bool> {
-        let shape = world.shape();
-        let sizes = Sizes { y: shape.observations, a: shape.decisions };
         let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
         for plans in families {
