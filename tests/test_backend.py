@@ -81,6 +81,10 @@ class InProcess:
         self.asked.append("controller_credit")
         return Done(_core.controller_credit(self.engine, controllers, seed, purpose, iteration, episodes, 1))
 
+    def controller_steps(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Done:
+        self.asked.append("controller_steps")
+        return Done(_core.controller_steps(self.engine, controllers, seed, purpose, iteration, episodes, 1))
+
     def exact_values(self, controllers: str, tolerance: float) -> Done:
         self.asked.append("exact_values")
         return Done(_core.controller_exact_values(self.engine, controllers, tolerance, 1))
@@ -106,6 +110,16 @@ def test_any_backend_runs_every_optimiser_as_here():
     here_run = cehmm.run("random-search", Corridor(), **settings)
     there_run = cehmm.run("random-search", Corridor(), backend=InProcess(), **settings)
     assert there_run.policy.to_json() == here_run.policy.to_json()
+
+    # Memory from every step: the workers send every step back.
+    settings = dict(samples=4, episodes=3, memories=20, rounds=2, max_iterations=2, eval_episodes=50)
+    backend = InProcess()
+    here_run = cehmm.run("model-search", Corridor(), **settings)
+    there_run = cehmm.run("model-search", Corridor(), backend=backend, **settings)
+    assert there_run.policy.to_json() == here_run.policy.to_json()
+    same = ("env_steps", "best", "mean")
+    assert [list(there_run.history[k]) for k in same] == [list(here_run.history[k]) for k in same]
+    assert {"controller_steps", "controller_values"} <= set(backend.asked)
 
 
 def test_exact_values_go_through_the_backend_too():

@@ -246,6 +246,15 @@ def test_an_optimiser_given_by_its_step_runs_on_ray_as_here(cluster):
     assert list(remote.history["mean"]) == list(local.history["mean"])
 
 
+def test_memory_from_every_step_on_ray_is_the_local_one(cluster):
+    # The workers send every step back; the model is learnt here from the same steps in order.
+    settings = dict(samples=6, episodes=3, memories=20, rounds=2, max_iterations=3, eval_episodes=100, progress=False)
+    local = cehmm.run("model-search", Corridor(), **settings)
+    remote = cehmm.run("model-search", Corridor(), backend="ray", workers=2, **settings)
+    assert remote.policy.to_json() == local.policy.to_json()
+    assert (remote.env_steps, list(remote.history["best"])) == (local.env_steps, list(local.history["best"]))
+
+
 def test_a_worker_killed_mid_run_changes_nothing(cluster, tmp_path: Path):
     marker = tmp_path / "killed"
     remote = cehmm.optimize(KillsItsWorker(str(marker)), init="random", backend="ray", workers=2, **CORRIDOR)

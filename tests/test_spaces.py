@@ -59,6 +59,8 @@ def test_box_observations_are_cut_at_quantiles_of_a_warm_up_by_default() -> None
     assert len(x_edges) == 7 and np.allclose(x_edges, [10 * k / 8 for k in range(1, 8)], atol=0.4)
     assert flat_edges == [0.0]
     assert world.n_observations == 8 * 2
+    # The cells' parts, for a learner that looks at some of them (model §10).
+    assert record["radices"] == [8, 2]
     # The warm-up is seeded: the same edges again; a copy (for a backend's workers) keeps them.
     assert cehmm.PythonWorld(Line()).description["spaces"] == world.description["spaces"]
     assert pickle.loads(pickle.dumps(world)).description == world.description

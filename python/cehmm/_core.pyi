@@ -28,6 +28,7 @@ __all__ = [
     "controller_exact_values",
     "controller_values",
     "controller_credit",
+    "controller_steps",
     "Policy",
     "cli",
     "read_file",
@@ -320,6 +321,15 @@ def controller_values(
     threads: int | None = None,
 ) -> npt.NDArray[np.float64]: ...
 def controller_credit(
+    world: World | OutsideWorld,
+    controllers: str,
+    seed: int,
+    purpose: str,
+    iteration: int,
+    episodes: int,
+    threads: int | None = None,
+) -> npt.NDArray[np.float64]: ...
+def controller_steps(
     world: World | OutsideWorld,
     controllers: str,
     seed: int,

@@ -83,6 +83,13 @@ class Sampler(Protocol):
         (``_core.controller_credit``)."""
         ...
 
+    def controller_steps(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> Pending:
+        """As :meth:`controller_values`, with every step of each episode, episode after episode
+        (what a learner of memory from every step keeps, model §10): its value, 1.0 where
+        credited (else 0.0), the discount, its length ``L``, its ``L`` observations, its ``L``
+        rewards; then the world's steps they took (``_core.controller_steps``)."""
+        ...
+
     def exact_values(self, controllers: str, tolerance: float) -> Pending:
         """The exact value of each controller (a tabular world), to ``tolerance``."""
         ...
@@ -120,6 +127,9 @@ class Backend(Protocol):
         ...     def controller_credit(self, controllers, seed, purpose, iteration, episodes):
         ...         args = (self.world, controllers, seed, purpose, iteration, episodes)
         ...         return Done(_core.controller_credit(*args))
+        ...     def controller_steps(self, controllers, seed, purpose, iteration, episodes):
+        ...         args = (self.world, controllers, seed, purpose, iteration, episodes)
+        ...         return Done(_core.controller_steps(*args))
         ...     def exact_values(self, controllers, tolerance):
         ...         return Done(_core.controller_exact_values(self.world, controllers, tolerance))
         >>> isinstance(Here(), Backend), isinstance(HereSampler(None), Sampler)

@@ -136,8 +136,14 @@ class _Adapted:
         self.n_decisions = self.actions.size
 
     def spaces(self) -> dict[str, Any]:
-        """What the description records of the encodings."""
-        return {"observation": self.observations.record(), "action": self.actions.record()}
+        """What the description records of the encodings; an observation of several parts (the
+        dimensions of a ``Box`` cut into bins, of a ``MultiDiscrete``, a ``Tuple``'s spaces) with
+        their ``radices`` (its index is their row-major number), where a learner looks at some
+        parts only (model §10's lenses)."""
+        observation = self.observations.record()
+        if len(self.observations.radices) > 1:
+            observation["radices"] = [int(r) for r in self.observations.radices]
+        return {"observation": observation, "action": self.actions.record()}
 
 
 class EnvEpisodes(_Adapted):

@@ -336,6 +336,11 @@ class RaySampler:
         """Values and credit within episodes of each controller, controller by controller."""
         return self._controllers("credit", controllers, seed, purpose, iteration, episodes)
 
+    def controller_steps(self, controllers: str, seed: int, purpose: str, iteration: int, episodes: int) -> RayPending:
+        """Values and every step of each episode, episode by episode (records of any length,
+        concatenated in order)."""
+        return self._controllers("steps", controllers, seed, purpose, iteration, episodes)
+
     def _controllers(
         self, kind: str, controllers: str, seed: int, purpose: str, iteration: int, episodes: int
     ) -> RayPending:
@@ -423,6 +428,9 @@ def _sum_counts(parts: list[npt.NDArray[np.uint32]]) -> npt.NDArray[np.uint32]:
     return np.sum(parts, axis=0, dtype=np.uint64).astype(np.uint32)
 
 
+#: The engine's function of each kind of controllers' shard.
+_CONTROLLER_RUNS = {"controllers": "controller_values", "credit": "controller_credit", "steps": "controller_steps"}
+
 #: The engine worlds of this worker process, by sampler.
 _WORLDS: dict[str, Any] = {}
 
@@ -438,8 +446,8 @@ def _shard(key: str, world: list[Any], kind: str, policy: str, threads: int, *ar
         engine = _WORLDS[key] = core_world(user_world, **options)
         if len(_WORLDS) > 8:
             _WORLDS.pop(next(iter(_WORLDS)))
-    if kind in ("controllers", "credit"):
-        run = _core.controller_values if kind == "controllers" else _core.controller_credit
+    if kind in _CONTROLLER_RUNS:
+        run = getattr(_core, _CONTROLLER_RUNS[kind])
         controllers, seed, purpose, iteration, episodes = args
         return run(engine, controllers, seed, purpose, iteration, episodes, threads)
     if kind == "exact":

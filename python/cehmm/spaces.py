@@ -202,6 +202,7 @@ class Hashed(Encoding):
         if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or not 1 <= size <= MAX_INDICES:
             raise _core.InvalidArgumentError(f"invalid Hashed size: {size!r} (expected an int in 1..={MAX_INDICES})")
         self.size = int(size)
+        self.radices = [self.size]
         self.space = space
         self.role = role
         # A value's components, read the same way at every step: made once.

@@ -62,7 +62,7 @@ mod _core {
     #[pymodule_export]
     use super::run::run;
     #[pymodule_export]
-    use super::shards::{controller_credit, controller_exact_values, controller_values};
+    use super::shards::{controller_credit, controller_exact_values, controller_steps, controller_values};
     #[pymodule_export]
     use super::stepping::{PyAgent, PySession};
     #[pymodule_export]

@@ -10,10 +10,12 @@
 //! `counts(policy, seed, iteration, episodes)`,
 //! `controller_values(controllers, seed, purpose, iteration, episodes)`,
 //! `controller_credit(controllers, seed, purpose, iteration, episodes)` (the values with each
-//! controller's credit within its episodes, model §8) and `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
+//! controller's credit within its episodes, model §8), `controller_steps(controllers, seed,
+//! purpose, iteration, episodes)` (the values with every step of each episode, model §10) and
+//! `exact_values(controllers, tolerance)` (a policy and the controllers as JSON text), each
 //! returning at once a pending answer ([`PENDING`]: `wait(seconds) -> bool`,
 //! `result() -> numpy array` and `cancel()`), waited for by `ceworld::episodes::wait_for`, so
-//! that Ctrl-C cancels what is still running. On the engine's side the same five are the [`Episodes`]
+//! that Ctrl-C cancels what is still running. On the engine's side the same six are the [`Episodes`]
 //! methods `run`, `run_controllers` and `run_controllers_credited` and the trait
 //! [`ceworld::episodes::Remote`].
 
@@ -30,12 +32,14 @@ use ceworld::policy::controller::Controller;
 use ceworld::rng::Purpose;
 use ceworld::{Error, Hhmm, Interrupt, PolicyFile, PomdpWorld};
 
-/// What the engine asks of a backend, by name: rewards, counts, controller values, exact values.
-pub const METHODS: [&str; 5] = [REWARDS, COUNTS, CONTROLLER_VALUES, CONTROLLER_CREDIT, EXACT_VALUES];
+/// What the engine asks of a backend, by name: rewards, counts, controller values (alone, with
+/// credit, with steps), exact values.
+pub const METHODS: [&str; 6] = [REWARDS, COUNTS, CONTROLLER_VALUES, CONTROLLER_CREDIT, CONTROLLER_STEPS, EXACT_VALUES];
 const REWARDS: &str = "rewards";
 const COUNTS: &str = "counts";
 const CONTROLLER_VALUES: &str = "controller_values";
 const CONTROLLER_CREDIT: &str = "controller_credit";
+const CONTROLLER_STEPS: &str = "controller_steps";
 const EXACT_VALUES: &str = "exact_values";
 /// What a backend's pending answer has: wait, result, cancel.
 pub const PENDING: [&str; 3] = [WAIT_FOR, RESULT, CANCEL];
@@ -130,7 +134,7 @@ impl Remote {
         &self,
         method: &str,
         args: impl FnOnce(Python<'_>) -> PyResult<Py<PyTuple>>,
-        len: usize,
+        len: Option<usize>,
     ) -> ceworld::Result<Vec<T>> {
         self.interrupt.check()?;
         let pending = Python::attach(|py| {
@@ -144,7 +148,7 @@ impl Remote {
             let answer = pending.bind(py).call_method0(RESULT).map_err(|e| self.keep(py, e))?;
             let array: PyReadonlyArray1<'_, T> = answer.extract().map_err(|e| self.keep(py, e))?;
             let values = array.as_slice().map_err(|e| self.keep(py, e.into()))?;
-            if values.len() != len {
+            if let Some(len) = len.filter(|&len| values.len() != len) {
                 return Err(Error::World(format!(
                     "the backend's {method} gave {} numbers (expected {len})",
                     values.len()
@@ -213,7 +217,7 @@ impl Episodes for Remote {
         let answer = self.ask::<f64>(
             REWARDS,
             |py| Ok((text, streams.seed, purpose, streams.iteration, first, n).into_pyobject(py)?.unbind()),
-            n + 1,
+            Some(n + 1),
         )?;
         let (rewards, steps) = with_steps(&answer, REWARDS)?;
         batch.values.copy_from_slice(rewards);
@@ -232,7 +236,7 @@ impl Episodes for Remote {
         let answer = self.ask::<f64>(
             CONTROLLER_VALUES,
             |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
-            values.len() + 1,
+            Some(values.len() + 1),
         )?;
         let (answer, steps) = with_steps(&answer, CONTROLLER_VALUES)?;
         values.copy_from_slice(answer);
@@ -249,10 +253,23 @@ impl Episodes for Remote {
     ) -> ceworld::Result<(u64, bool)> {
         let text = serde_json::to_string(controllers).expect("controllers serialise");
         let purpose = purpose_name(streams.purpose)?;
+        if credit.traces.is_some() {
+            // Every step comes back (model §10), as many as the episodes took.
+            let args = |py: Python<'_>| {
+                Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind())
+            };
+            let answer = self.ask::<f64>(CONTROLLER_STEPS, args, None)?;
+            if answer.is_empty() {
+                return Err(Error::World(format!("the backend's {CONTROLLER_STEPS} gave no number")));
+            }
+            let (answer, steps) = with_steps(&answer, CONTROLLER_STEPS)?;
+            let credited = credit.add_steps(answer, controllers, self.shape.observations, values, episodes)?;
+            return Ok((steps, credited));
+        }
         let answer = self.ask::<f64>(
             CONTROLLER_CREDIT,
             |py| Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind()),
-            controllers.len() * StepCredit::block(episodes, credit.rows) + 1,
+            Some(controllers.len() * StepCredit::block(episodes, credit.rows) + 1),
         )?;
         let (answer, steps) = with_steps(&answer, CONTROLLER_CREDIT)?;
         Ok((steps, credit.add_blocks(answer, values, episodes)))
@@ -279,12 +296,12 @@ impl ceworld::episodes::Remote for Remote {
             let episodes = PyArray1::from_vec(py, episodes);
             Ok((text, streams.seed, streams.iteration, episodes).into_pyobject(py)?.unbind())
         };
-        self.ask::<u32>(COUNTS, args, policy.layout().len)
+        self.ask::<u32>(COUNTS, args, Some(policy.layout().len))
     }
 
     fn exact_values(&self, controllers: &[Controller], tolerance: f64) -> ceworld::Result<Vec<f64>> {
         let text = serde_json::to_string(controllers).expect("controllers serialise");
         let args = |py: Python<'_>| Ok((text, tolerance).into_pyobject(py)?.unbind());
-        self.ask::<f64>(EXACT_VALUES, args, controllers.len())
+        self.ask::<f64>(EXACT_VALUES, args, Some(controllers.len()))
     }
 }

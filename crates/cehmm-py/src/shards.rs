@@ -1,5 +1,6 @@
 //! The worker's side of episodes sampled elsewhere (model §9): `controller_values`,
-//! `controller_credit` and `controller_exact_values`, a shard of a controller search's iteration as a worker runs it.
+//! `controller_credit`, `controller_steps` and `controller_exact_values`, a shard of a controller
+//! search's iteration as a worker runs it.
 
 use numpy::PyArray1;
 use pyo3::prelude::*;
@@ -72,19 +73,38 @@ pub fn controller_credit<'py>(
     threads: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let run = Shard::read(py, world, controllers, seed, purpose, iteration, episodes, threads)?;
+    // One shape per shard (the search's): the first's rows.
     let rows = run.controllers.first().map_or(0, StepCredit::rows_of);
-    let pool = ceworld::control::thread_pool(run.threads).or_raise()?;
-    let blocks = run.world.run(py, |w| {
-        let mut values = vec![0.0; run.controllers.len() * run.episodes];
-        let mut credit = StepCredit::new(run.controllers.len(), rows);
-        let (steps, credited) = pool.install(|| {
-            w.run_controllers_credited(&run.controllers, run.streams, run.episodes, &mut values, &mut credit)
-        })?;
-        let mut blocks = credit.to_blocks(credited, &values, run.episodes);
-        blocks.push(steps as f64);
-        Ok(blocks)
+    let blocks = run.credited(py, StepCredit::new(run.controllers.len(), rows), |credit, credited, values| {
+        credit.to_blocks(credited, values, run.episodes)
     })?;
     Ok(PyArray1::from_vec(py, blocks))
+}
+
+/// As [`controller_values`], with every step of each episode, episode by episode: its value,
+/// whether credited, the discount, its length and its observations and rewards
+/// (`ceworld::episodes::credit::StepCredit::to_steps`: what a learner of memory from every step
+/// keeps, model §10); then the world's steps they took.
+#[pyfunction]
+#[pyo3(signature = (world, controllers, seed, purpose, iteration, episodes, threads = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn controller_steps<'py>(
+    py: Python<'py>,
+    world: &Bound<'py, PyAny>,
+    controllers: &str,
+    seed: &Bound<'py, PyAny>,
+    purpose: &str,
+    iteration: &Bound<'py, PyAny>,
+    episodes: &Bound<'py, PyAny>,
+    threads: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let run = Shard::read(py, world, controllers, seed, purpose, iteration, episodes, threads)?;
+    // Explorers of two shapes may share a shard: the rows of the largest (only the steps are read).
+    let rows = run.controllers.iter().map(StepCredit::rows_of).max().unwrap_or(0);
+    let numbers = run.credited(py, StepCredit::traced(run.controllers.len(), rows), |credit, credited, values| {
+        credit.to_steps(credited, values)
+    })?;
+    Ok(PyArray1::from_vec(py, numbers))
 }
 
 /// A shard of controllers to run, its arguments read.
@@ -97,6 +117,26 @@ struct Shard<'py> {
 }
 
 impl<'py> Shard<'py> {
+    /// Runs the shard with `credit` (`Episodes::run_controllers_credited`): what `answer` makes
+    /// of the credit, whether credited and the values, then the world's steps they took.
+    fn credited(
+        &self,
+        py: Python<'py>,
+        mut credit: StepCredit,
+        answer: impl Fn(&StepCredit, bool, &[f64]) -> Vec<f64> + Send + Sync,
+    ) -> PyResult<Vec<f64>> {
+        let pool = ceworld::control::thread_pool(self.threads).or_raise()?;
+        let (controllers, streams, episodes) = (&self.controllers, self.streams, self.episodes);
+        self.world.run(py, |w| {
+            let mut values = vec![0.0; controllers.len() * episodes];
+            let (steps, credited) =
+                pool.install(|| w.run_controllers_credited(controllers, streams, episodes, &mut values, &mut credit))?;
+            let mut numbers = answer(&credit, credited, &values);
+            numbers.push(steps as f64);
+            Ok(numbers)
+        })
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn read(
         py: Python<'py>,

@@ -6,6 +6,7 @@
 //! a ranking of whole controllers.
 
 use crate::episodes::trace::Traces;
+use crate::error::{Error, Result};
 use crate::policy::controller::Controller;
 
 /// The credit of the decision rows of a set of controllers (all of one shape): for controller
@@ -106,6 +107,70 @@ impl StepCredit {
         credited
     }
 
+    /// Values and every kept step as one list of numbers, episode after episode (episode `k` of
+    /// controller `c` at `c·episodes + k`, as `values`): its value, 1.0 where credited (else 0.0),
+    /// the discount, its length `L`, its `L` observations, its `L` rewards. What a backend's
+    /// worker answers where the learner keeps steps (model §10); the decisions are the
+    /// controllers' own, taken again where the numbers are read ([`StepCredit::add_steps`]).
+    pub fn to_steps(&self, credited: bool, values: &[f64]) -> Vec<f64> {
+        let traces = self.traces.as_ref().filter(|t| credited && t.ends.len() == values.len());
+        let mut ranges = traces.map(Traces::episodes);
+        let mut out = Vec::with_capacity(4 * values.len() + 2 * traces.map_or(0, Traces::steps));
+        for &value in values {
+            let range = ranges.as_mut().and_then(Iterator::next).unwrap_or(0..0);
+            let gamma = traces.map_or(1.0, |t| t.gamma);
+            out.extend([value, f64::from(u8::from(traces.is_some())), gamma, range.len() as f64]);
+            if let Some(t) = traces {
+                out.extend(t.obs[range.clone()].iter().map(|&y| f64::from(y)));
+                out.extend_from_slice(&t.rew[range]);
+            }
+        }
+        out
+    }
+
+    /// Reads [`StepCredit::to_steps`]'s numbers of `controllers`' episodes (`episodes` each)
+    /// into `values` and adds each credited episode's steps to this, as run here; whether every
+    /// episode was credited. Numbers that are not such records are refused.
+    pub fn add_steps(
+        &mut self,
+        numbers: &[f64],
+        controllers: &[Controller],
+        n_obs: usize,
+        values: &mut [f64],
+        episodes: usize,
+    ) -> Result<bool> {
+        let bad = |why: String| Error::World(format!("the steps a backend's worker gave: {why}"));
+        let (mut at, mut credited) = (0, true);
+        for (i, value) in values.iter_mut().enumerate() {
+            let Some(&[v, flag, gamma, length]) = numbers.get(at..at + 4) else {
+                return Err(bad(format!("{} numbers end within episode {i}'s record", numbers.len())));
+            };
+            let n = length as usize;
+            if length.fract() != 0.0 || !(0.0..=(numbers.len() - at) as f64).contains(&length) {
+                return Err(bad(format!("episode {i} of {length} steps (expected a whole number that fits)")));
+            }
+            let (obs, rew) = match numbers.get(at + 4..at + 4 + 2 * n) {
+                Some(steps) => steps.split_at(n),
+                None => return Err(bad(format!("episode {i}'s {n} steps run past the {} numbers", numbers.len()))),
+            };
+            if let Some(y) = obs.iter().find(|&&y| !(y.fract() == 0.0 && y >= 0.0 && y < n_obs as f64)) {
+                return Err(bad(format!("observation {y} (expected a whole number below {n_obs})")));
+            }
+            *value = v;
+            credited &= flag == 1.0;
+            if flag == 1.0 {
+                let c = &controllers[i / episodes];
+                let steps = obs.iter().map(|&y| y as usize).zip(rew.iter().copied());
+                self.add(i / episodes, c, n_obs, steps, gamma, v);
+            }
+            at += 4 + 2 * n;
+        }
+        if at != numbers.len() {
+            return Err(bad(format!("{} numbers after the {} episodes' records", numbers.len() - at, values.len())));
+        }
+        Ok(credited)
+    }
+
     /// `other`'s controllers after these.
     pub fn append(&mut self, other: StepCredit) {
         debug_assert_eq!(self.rows, other.rows);
@@ -185,6 +250,48 @@ mod tests {
         two.append(StepCredit { rows: 2, visits: vec![0, 0], sums: vec![0.0, 0.0], traces: None });
         assert_eq!(two.best([&[0, 1][..], &[1, 1]].into_iter().enumerate(), 2), vec![None, None]);
         assert_eq!(two.visits.len(), 4);
+    }
+
+    #[test]
+    fn kept_steps_travel_as_numbers_and_come_back_as_run_here() {
+        // Two controllers of two episodes, traced here.
+        let echo = Controller::mealy(vec![0, 1, 1, 0], vec![0, 1, 0, 1], 2);
+        let hold = Controller::moore(vec![1], vec![0, 0]);
+        let controllers = [echo.clone(), hold.clone()];
+        let episodes: [(usize, Vec<(usize, f64)>); 4] =
+            [(0, vec![(1, 1.0), (0, 2.0)]), (0, vec![(0, -1.0)]), (1, vec![]), (1, vec![(1, 0.5), (1, 0.5), (0, 4.0)])];
+        let mut here = StepCredit::traced(2, 4);
+        let mut values = [0.0; 4];
+        for (i, (c, steps)) in episodes.iter().enumerate() {
+            values[i] = steps.iter().map(|s| s.1).sum::<f64>() + i as f64;
+            here.add(*c, &controllers[*c], 2, steps.iter().copied(), 0.9, values[i]);
+        }
+        let numbers = here.to_steps(true, &values);
+        assert_eq!(numbers.len(), 4 * 4 + 2 * 6);
+        assert_eq!(&numbers[..8], &[values[0], 1.0, 0.9, 2.0, 1.0, 0.0, 1.0, 2.0]);
+        let (mut there, mut read) = (StepCredit::traced(2, 4), [0.0; 4]);
+        assert!(there.add_steps(&numbers, &controllers, 2, &mut read, 2).unwrap());
+        assert_eq!((there, read), (here.clone(), values));
+        // Not credited: the values only.
+        let plain = here.to_steps(false, &values);
+        let mut none = StepCredit::traced(2, 4);
+        assert!(!none.add_steps(&plain, &controllers, 2, &mut read, 2).unwrap());
+        assert_eq!((none.visits.iter().sum::<u32>(), none.traces.unwrap().steps()), (0, 0));
+        // Records that are not whole, or observations out of range, are refused.
+        let mut bad = StepCredit::traced(2, 4);
+        let refused = |numbers: &[f64], bad: &mut StepCredit| {
+            bad.add_steps(numbers, &controllers, 2, &mut [0.0; 4], 2).unwrap_err().to_string()
+        };
+        assert!(refused(&numbers[..numbers.len() - 1], &mut bad).contains("run past"));
+        let mut far = numbers.clone();
+        far[4] = 2.0;
+        assert!(refused(&far, &mut bad).contains("observation 2"));
+        let mut more = numbers.clone();
+        more.push(0.0);
+        assert!(refused(&more, &mut bad).contains("1 numbers after"));
+        let mut half = numbers.clone();
+        half[3] = 1.5;
+        assert!(refused(&half, &mut bad).contains("1.5 steps"));
     }
 
     #[test]

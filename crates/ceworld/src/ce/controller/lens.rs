@@ -3,11 +3,15 @@
 //! looks at: some lags of a window (observation lag 0 the current one) and, or not, the first
 //! observation. A lens's agent states are few (a task that repeats the card four steps back needs
 //! one lag: as many states as cards), so its model is learnt from few steps, while the machine
-//! that carries it holds every observation and decision up to its oldest lag. Every lens of a few
-//! features is ranked on the model of the same steps.
+//! that carries it holds every observation and decision up to its oldest lag. Where an observation
+//! is made of parts (the dimensions of a `Box` cut into bins: [`Sizes::radices`]), a lens may look
+//! at some of them only (its `view`), so that a lag of the one part that matters does not multiply
+//! the states by the others. Every lens of a few features is ranked on the model of the same steps.
 
 use serde::{Deserialize, Serialize};
+use serde_json::Value;
 
+use crate::episodes::Shape;
 use crate::episodes::trace::Traces;
 use crate::policy::controller::Controller;
 
@@ -20,7 +24,14 @@ pub struct Lens {
     pub decisions: u32,
     /// The episode's first observation.
     pub first: bool,
+    /// Bit `f`: part `f` of the observations looked at ([`Sizes::radices`]; all of them where
+    /// the observation is one part).
+    #[serde(default)]
+    pub view: u32,
 }
+
+/// The most parts an observation is seen as made of ([`Sizes::radices`]).
+pub const MOST_PARTS: usize = 8;
 
 /// A world's sizes as a lens sees them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,6 +40,66 @@ pub struct Sizes {
     pub y: usize,
     /// Decisions.
     pub a: usize,
+    /// The observation's parts (its row-major digits: `y` is `radices[0] · radices[1] · …`, the
+    /// first the most significant), `parts` of them.
+    pub radices: [usize; MOST_PARTS],
+    /// How many.
+    pub parts: usize,
+}
+
+impl Sizes {
+    /// `y` observations of one part, `a` decisions.
+    pub fn new(y: usize, a: usize) -> Sizes {
+        let mut radices = [1; MOST_PARTS];
+        radices[0] = y;
+        Sizes { y, a, radices, parts: 1 }
+    }
+
+    /// `y` observations made of parts of `radices` values each (one part where they are more
+    /// than [`MOST_PARTS`], fewer than two, or their product is not `y`).
+    pub fn parts(y: usize, a: usize, radices: &[usize]) -> Sizes {
+        let product = radices.iter().try_fold(1usize, |p, &r| p.checked_mul(r));
+        if radices.len() < 2 || radices.len() > MOST_PARTS || product != Some(y) || radices.contains(&1) {
+            return Sizes::new(y, a);
+        }
+        let mut sizes = Sizes::new(y, a);
+        sizes.radices[..radices.len()].copy_from_slice(radices);
+        sizes.parts = radices.len();
+        sizes
+    }
+
+    /// A world's sizes, its observation's parts read from its description (its
+    /// `spaces.observation.radices`, where its encoding gives them: `cehmm.spaces`).
+    pub fn of(shape: Shape, description: &Value) -> Sizes {
+        let radices = description.pointer("/spaces/observation/radices").and_then(Value::as_array);
+        let radices: Option<Vec<usize>> =
+            radices.and_then(|r| r.iter().map(|v| v.as_u64().and_then(|v| usize::try_from(v).ok())).collect());
+        Sizes::parts(shape.observations, shape.decisions, radices.as_deref().unwrap_or(&[]))
+    }
+
+    /// The view of every part.
+    pub fn whole(self) -> u32 {
+        (1 << self.parts) - 1
+    }
+
+    /// Values of the parts of `view`.
+    pub fn seen(self, view: u32) -> usize {
+        set(view & self.whole()).map(|f| self.radices[f]).product()
+    }
+
+    /// The parts of `view` of observation `y`, as one number (row-major).
+    pub fn project(self, view: u32, y: usize) -> usize {
+        if view & self.whole() == self.whole() {
+            return y;
+        }
+        let mut digits = [0; MOST_PARTS];
+        let mut rest = y;
+        for f in (0..self.parts).rev() {
+            digits[f] = rest % self.radices[f];
+            rest /= self.radices[f];
+        }
+        set(view & self.whole()).fold(0, |s, f| s * self.radices[f] + digits[f])
+    }
 }
 
 /// The highest bit set (0 where none).
@@ -61,14 +132,15 @@ fn set(bits: u32) -> impl Iterator<Item = usize> {
 
 impl Lens {
     /// Every lens of at most `most` features (observations of lags below `window`, decisions of
-    /// lags 1 to `window - 1`, the first observation) whose machine has at most `max_nodes`
-    /// nodes, fewest features first.
+    /// lags 1 to `window - 1`, the first observation), each that looks at an observation once per
+    /// non-empty view of its parts, whose machine has at most `max_nodes` nodes, fewest features
+    /// first.
     pub fn all(window: usize, most: usize, sizes: Sizes, max_nodes: usize) -> Vec<Lens> {
         let window = window.min(31);
         // Feature k: observation lag k (k < window), decision lag k - window + 1, the first.
         let features = 2 * window;
         let lens_of = |chosen: &[usize]| {
-            let mut l = Lens { lags: 0, decisions: 0, first: false };
+            let mut l = Lens { lags: 0, decisions: 0, first: false, view: sizes.whole() };
             for &k in chosen {
                 match k {
                     k if k < window => l.lags |= 1 << k,
@@ -78,10 +150,16 @@ impl Lens {
             }
             l
         };
+        let views = |l: Lens| {
+            let looks = l.lags != 0 || l.first;
+            let views = if looks { 1..=sizes.whole() } else { sizes.whole()..=sizes.whole() };
+            views.map(move |view| Lens { view, ..l })
+        };
         let mut lenses: Vec<Lens> = subsets(features, most)
             .iter()
             .map(|s| lens_of(s))
             .filter(|l| l.nodes(sizes) <= max_nodes as u128)
+            .flat_map(views)
             .collect();
         lenses.sort_by_key(|l| l.features());
         lenses
@@ -104,7 +182,7 @@ impl Lens {
     /// Agent states: the values of the features looked at (a past observation or decision may be
     /// none yet).
     pub fn states(self, sizes: Sizes) -> usize {
-        let Sizes { y, a } = sizes;
+        let (y, a) = (sizes.seen(self.view), sizes.a);
         set(self.lags).map(|j| if j == 0 { y } else { y + 1 }).product::<usize>()
             * (a + 1).pow(self.decisions.count_ones())
             * if self.first { y } else { 1 }
@@ -112,7 +190,8 @@ impl Lens {
 
     /// The agent state of a step that observes `current`, with `past(j)` the observation `j`
     /// steps before plus one and `before(j)` the decision `j` steps before plus one (0: none,
-    /// before the episode's start), and the episode's `first`.
+    /// before the episode's start), and the episode's `first`; of each observation, the parts of
+    /// the view.
     fn state(
         self,
         sizes: Sizes,
@@ -121,15 +200,21 @@ impl Lens {
         before: impl Fn(usize) -> usize,
         first: usize,
     ) -> usize {
-        let Sizes { y, a } = sizes;
+        let (y, a) = (sizes.seen(self.view), sizes.a);
+        let seen = |o: usize| sizes.project(self.view, o);
         let mut s = 0;
         for j in set(self.lags) {
-            s = if j == 0 { s * y + current } else { s * (y + 1) + past(j) };
+            s = if j == 0 {
+                s * y + seen(current)
+            } else {
+                let p = past(j);
+                s * (y + 1) + if p == 0 { 0 } else { seen(p - 1) + 1 }
+            };
         }
         for j in set(self.decisions) {
             s = s * (a + 1) + before(j);
         }
-        if self.first { s * y + first } else { s }
+        if self.first { s * y + seen(first) } else { s }
     }
 
     /// The agent state of every kept step.
@@ -191,7 +276,7 @@ mod tests {
         traces
     }
 
-    const SIZES: Sizes = Sizes { y: 2, a: 3 };
+    const SIZES: Sizes = Sizes { y: 2, a: 3, radices: [2, 1, 1, 1, 1, 1, 1, 1], parts: 1 };
 
     #[test]
     fn lenses_are_counted_by_their_features_and_machines() {
@@ -199,8 +284,8 @@ mod tests {
         // Observations of lags 0, 1, 2, decisions of lags 1, 2, the first: 1 + 6 + 15 lenses
         // of at most two features.
         assert_eq!(all.len(), 22);
-        assert_eq!(all[0], Lens { lags: 0, decisions: 0, first: false });
-        let l = Lens { lags: 0b101, decisions: 0b10, first: true };
+        assert_eq!(all[0], Lens { lags: 0, decisions: 0, first: false, view: 1 });
+        let l = Lens { lags: 0b101, decisions: 0b10, first: true, view: 1 };
         // Nodes: two past observations, one decision, the first (3·3 · 4 · 3); states 2·3 · 4 · 2.
         assert_eq!((l.features(), l.nodes(SIZES), l.states(SIZES)), (4, 108, 48));
         // A lag of 2 holds two past observations: 9 nodes, more than 8.
@@ -211,7 +296,7 @@ mod tests {
     fn a_lens_sees_the_lag_and_the_first_observation_it_names() {
         let traces = traces();
         // The observation one step back (0 none, else y + 1), beside the first one.
-        let l = Lens { lags: 0b10, decisions: 0, first: true };
+        let l = Lens { lags: 0b10, decisions: 0, first: true, view: 1 };
         let states = l.replay(SIZES, &traces);
         let expected: Vec<u32> = (0..8usize)
             .flat_map(|s| {
@@ -221,7 +306,7 @@ mod tests {
             .collect();
         assert_eq!(states, expected);
         // The decision before (0 none, else d + 1): the echo decides what it observes.
-        let l = Lens { lags: 0, decisions: 0b10, first: false };
+        let l = Lens { lags: 0, decisions: 0b10, first: false, view: 1 };
         let expected: Vec<u32> = (0..8usize)
             .flat_map(|s| {
                 let obs = [s >> 2 & 1, s >> 1 & 1, s & 1];
@@ -232,7 +317,51 @@ mod tests {
     }
 
     #[test]
+    fn a_lens_may_look_at_some_parts_of_an_observation() {
+        // Observations of two parts, of 2 and 3 values (row-major: y = 3·u + v).
+        let sizes = Sizes::parts(6, 2, &[2, 3]);
+        assert_eq!((sizes.parts, sizes.whole(), sizes.seen(0b01), sizes.seen(0b10), sizes.seen(0b11)), (2, 3, 2, 3, 6));
+        assert_eq!([0b01, 0b10, 0b11].map(|view| sizes.project(view, 5)), [1, 2, 5]);
+        // Parts that do not make the observations are one part.
+        for radices in [&[6][..], &[2, 2], &[1, 6], &[]] {
+            assert_eq!(Sizes::parts(6, 2, radices), Sizes::new(6, 2), "{radices:?}");
+        }
+        let described = serde_json::json!({"spaces": {"observation": {"radices": [2, 3]}}});
+        let shape = Shape { observations: 6, decisions: 2, horizon: 3 };
+        assert_eq!(Sizes::of(shape, &described), sizes);
+        assert_eq!(Sizes::of(shape, &serde_json::json!({})), Sizes::new(6, 2));
+        // The current observation's second part: 3 states; every view of each observation lens.
+        let l = Lens { lags: 1, decisions: 0, first: false, view: 0b10 };
+        assert_eq!((l.states(sizes), l.nodes(sizes)), (3, 1));
+        let all = Lens::all(2, 1, sizes, usize::MAX);
+        // None; the current, the previous and the first observation, three views each; the
+        // decision before.
+        assert_eq!(all.len(), 1 + 3 * 3 + 1);
+    }
+
+    /// Episodes of three observations of six values, decided by `machine`.
+    fn six(machine: &Controller) -> Traces {
+        let mut own = Traces::default();
+        for sequence in 0..36usize {
+            let obs = [sequence % 6, sequence / 6, (sequence * 5 + 1) % 6];
+            own.add(machine, 6, obs.into_iter().map(|y| (y, 0.0)));
+        }
+        own
+    }
+
+    #[test]
     fn its_machine_decides_as_the_lens_sees_on_every_step() {
+        let sizes = Sizes::parts(6, 2, &[2, 3]);
+        for l in Lens::all(3, 3, sizes, usize::MAX) {
+            let act: Vec<u32> = (0..l.states(sizes) as u32).map(|s| s * 7 % 2).collect();
+            let machine = l.controller(&act, sizes);
+            machine.check(6, 2).unwrap();
+            let own = six(&machine);
+            let states = l.replay(sizes, &own);
+            for t in 0..own.steps() {
+                assert_eq!(own.dec[t], act[states[t] as usize], "{l:?} at step {t}");
+            }
+        }
         for l in Lens::all(3, 4, SIZES, usize::MAX) {
             // A decision for every agent state, varied.
             let act: Vec<u32> = (0..l.states(SIZES) as u32).map(|s| s * 7 % 3).collect();

@@ -34,6 +34,11 @@ pub struct AgentModel {
     pub spread: f64,
     /// The most steps of one episode.
     pub longest: usize,
+    /// The agent state of every step, by its index in its episode: those of index `t` at
+    /// `timeline[at[t]..at[t + 1]]`.
+    pub timeline: Vec<u32>,
+    /// Where the states of each step index begin in `timeline` (`longest + 1` entries).
+    pub at: Vec<u32>,
 }
 
 /// A memory's decisions planned on its model, and the model's value of them.
@@ -74,6 +79,8 @@ impl AgentModel {
             starts: vec![0; states],
             spread: 0.0,
             longest: 0,
+            timeline: Vec::new(),
+            at: Vec::new(),
         };
         let pair = |t: usize| state[t] as usize * actions + traces.dec[t] as usize;
         let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -96,6 +103,25 @@ impl AgentModel {
             }
         }
         m.spread = if high > low { high - low } else { 0.0 };
+        // The states by step index (a counting sort): `at[t + 1] - at[t]` episodes reach index `t`.
+        let mut lengths = vec![0u32; m.longest + 1];
+        for episode in episodes() {
+            lengths[episode.len()] += 1;
+        }
+        let mut reaching: u32 = lengths.iter().sum();
+        m.at = vec![0; m.longest + 1];
+        for (t, &ended) in lengths[..m.longest].iter().enumerate() {
+            reaching -= ended;
+            m.at[t + 1] = m.at[t] + reaching;
+        }
+        let mut fill: Vec<u32> = m.at.clone();
+        m.timeline = vec![0; m.at[m.longest] as usize];
+        for episode in episodes() {
+            for (i, t) in episode.enumerate() {
+                m.timeline[fill[i] as usize] = state[t];
+                fill[i] += 1;
+            }
+        }
         // The successors of each pair in place (a counting sort), then sorted and counted.
         for p in 0..pairs {
             m.from[p + 1] += m.from[p];
@@ -126,9 +152,14 @@ impl AgentModel {
         m
     }
 
-    /// The decisions that value iteration on the model chooses (`horizon` backups discounted by
-    /// `gamma`, each (state, decision) less `pessimism · spread / √visits`; a state never visited
-    /// keeps `fallback`'s decision), and the model's value of the episodes' starts under them.
+    /// The decisions that value iteration on the model chooses, and the model's value of the
+    /// episodes' starts under the best decisions at each time.
+    ///
+    /// `horizon` backups discounted by `gamma`, each (state, decision) less `pessimism · spread /
+    /// √visits`. Backup `k` values each decision with `k` steps to go, which is what a step of
+    /// index `longest − k` has: a memory that does not hold the time decides, in each state, what
+    /// is best summed over the steps that met that state ([`AgentModel::timeline`]), not what is
+    /// best with the longest episode still ahead. A state never visited keeps `fallback`'s decision.
     pub fn plan(&self, gamma: f64, horizon: usize, pessimism: f64, fallback: &[u32]) -> Planned {
         let (n, a) = (self.states, self.actions);
         let penalty: Vec<f64> = self
@@ -137,27 +168,35 @@ impl AgentModel {
             .map(|&v| if v == 0 { 0.0 } else { pessimism * self.spread / f64::from(v).sqrt() })
             .collect();
         let (mut value, mut fresh) = (vec![0.0; n], vec![0.0; n]);
-        let mut act: Vec<u32> = fallback.to_vec();
-        for _ in 0..horizon.max(1) {
-            fresh.fill(0.0);
-            for s in 0..n {
-                let mut best: Option<(f64, u32)> = None;
-                for d in 0..a {
-                    let p = s * a + d;
-                    if self.visits[p] == 0 {
-                        continue;
-                    }
-                    let q_value = self.q(p, gamma, &value) - penalty[p];
-                    if best.is_none_or(|(b, _)| q_value > b) {
-                        best = Some((q_value, d as u32));
+        let mut q = vec![0.0; n * a];
+        let mut score = vec![0.0; n * a];
+        for k in 1..=horizon.max(1) {
+            for (s, fresh) in fresh.iter_mut().enumerate() {
+                let mut best: Option<f64> = None;
+                for p in (s * a..(s + 1) * a).filter(|&p| self.visits[p] > 0) {
+                    q[p] = self.q(p, gamma, &value) - penalty[p];
+                    if best.is_none_or(|b| q[p] > b) {
+                        best = Some(q[p]);
                     }
                 }
-                if let Some((v, d)) = best {
-                    fresh[s] = v;
-                    act[s] = d;
+                *fresh = best.unwrap_or(0.0);
+            }
+            if let Some(t) = self.longest.checked_sub(k) {
+                for &s in &self.timeline[self.at[t] as usize..self.at[t + 1] as usize] {
+                    let s = s as usize;
+                    for p in s * a..(s + 1) * a {
+                        score[p] += q[p];
+                    }
                 }
             }
             std::mem::swap(&mut value, &mut fresh);
+        }
+        let mut act: Vec<u32> = fallback.to_vec();
+        for (s, decision) in act.iter_mut().enumerate() {
+            let seen = (0..a).filter(|&d| self.visits[s * a + d] > 0);
+            if let Some(d) = seen.max_by(|&d, &e| score[s * a + d].total_cmp(&score[s * a + e]).then(e.cmp(&d))) {
+                *decision = d as u32;
+            }
         }
         Planned { act, value: self.start_value(&value) }
     }
@@ -266,6 +305,30 @@ mod tests {
         let visits = |h: usize| halves[h].visits.iter().sum::<u32>();
         assert_eq!((visits(0), visits(1)), (24, 24));
         assert!(plan.value > memoryless.value, "{} vs {}", plan.value, memoryless.value);
+    }
+
+    #[test]
+    fn a_state_decides_what_is_best_over_the_steps_that_met_it_not_with_the_longest_episode_ahead() {
+        // Episodes of two steps, the agent state the observation. Investing (decision 1) in state
+        // 0 pays nothing but leads to state 1, which pays 3; cashing (decision 0) pays 1. State 0
+        // is met once at the first step (invested) and twice at the last (cashed once, invested once).
+        let traces = Traces {
+            obs: vec![0, 1, 1, 0, 1, 0],
+            dec: vec![1, 0, 0, 0, 0, 1],
+            rew: vec![0.0, 3.0, 3.0, 1.0, 3.0, 0.0],
+            ends: vec![2, 4, 6],
+            gamma: 1.0,
+        };
+        let by_observation = [0, 1, 0, 1];
+        let m = AgentModel::fit(&replay(&by_observation, 2, &traces), 2, 2, &traces, None);
+        assert_eq!((m.longest, m.at.clone(), m.timeline.clone()), (2, vec![0, 3, 6], vec![0, 1, 1, 1, 0, 0]));
+        // With two steps to go, investing is worth (0 + 3) / 2 (one of its two steps led on), more
+        // than cashing's 1; with one step to go, 0 against 1. Summed over the steps that met state
+        // 0 (one with two steps to go, two with one), cashing: 1 + 2·1 = 3 against 1.5 + 2·0.
+        let plan = m.plan(1.0, m.longest, 0.0, &[1, 1]);
+        assert_eq!(plan.act, vec![0, 0]);
+        // Backups past the longest episode have no step to decide: the same plan.
+        assert_eq!(m.plan(1.0, 4 * m.longest, 0.0, &[1, 1]).act, plan.act);
     }
 
     #[test]

@@ -12,9 +12,9 @@
 //! value on the model of the other half, the best `rho`
 //! refitting the laws; and every lens of at most `lens_features` features ([`Lens`]: lags of the
 //! last `window` observations and decisions, the first observation) planned and valued the same way.
-//! (3) Confirms: the `confirm` best plans of each family and the best so far are valued on the
-//! iteration's selection episodes; the best plan replaces the best so far where it beats it on
-//! them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
+//! (3) Confirms: the `confirm` best plans of each family, the explorer that did best on its own
+//! episodes and the best so far are valued on the iteration's selection episodes; the best of the
+//! others replaces the best so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
 //! `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 use rayon::prelude::*;
@@ -179,8 +179,9 @@ impl Stepped for ModelSearch {
 
     fn episodes(c: &ModelSearchConfig) -> usize {
         // The explorers; the plans of each family and the best so far on the selection episodes.
+        // The best explorer, the best so far.
         let families = if c.window > 0 { 2 } else { 1 };
-        c.samples.saturating_mul(c.episodes) + (families * c.confirm + 1).saturating_mul(c.select_episodes)
+        c.samples.saturating_mul(c.episodes) + (families * c.confirm + 2).saturating_mul(c.select_episodes)
     }
 
     fn validate(c: &ModelSearchConfig) -> Result<()> {
@@ -254,13 +255,16 @@ impl Stepped for ModelSearch {
         // The explorers and the search start as wide as the laws widened by `explore`: the data
         // have grown since the last iteration's laws were fitted on fewer steps.
         self.laws.inject(c.explore);
-        let explored = self.explore(world, c, iteration, &mut rng, spent)?;
+        let (explorers, explored) = self.explore(world, c, iteration, &mut rng, spent)?;
+        // The explorer that did best on its own episodes challenges the plans.
+        let first_best = |b: usize, i: usize| if explored[i] > explored[b] { i } else { b };
+        let challenger = (!explored.is_empty()).then(|| explorers[(0..explored.len()).fold(0, first_best)].clone());
         let shape = world.shape();
-        let sizes = Sizes { y: shape.observations, a: shape.decisions };
+        let sizes = Sizes::of(shape, &world.description());
         let (tables, elite) = self.search(sizes, c, &mut rng);
         let lenses = self.lenses(sizes, c);
         let successful = if self.best.is_none() || !spent() {
-            self.confirm(world, c, iteration, sizes, [tables, lenses])?
+            self.confirm(world, c, iteration, sizes, [tables, lenses], challenger)?
         } else {
             false
         };
@@ -352,9 +356,9 @@ fn perturb(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Co
 }
 
 impl ModelSearch {
-    /// Runs the iteration's explorers, keeping their steps; their mean values. They are drawn
-    /// from the laws, and a `greedy` share of them is the best so far with `explore` of its
-    /// decisions drawn again.
+    /// Runs the iteration's explorers, keeping their steps: the explorers and the mean values of
+    /// those run (the budget may cut them). They are drawn from the laws, and a `greedy` share of
+    /// them is the best so far with `explore` of its decisions drawn again.
     fn explore(
         &mut self,
         world: &dyn Episodes,
@@ -362,7 +366,7 @@ impl ModelSearch {
         iteration: usize,
         rng: &mut EngineRng,
         spent: &dyn Fn() -> bool,
-    ) -> Result<Vec<f64>> {
+    ) -> Result<(Vec<Controller>, Vec<f64>)> {
         let greedy = if self.best.is_some() { (c.greedy * c.samples as f64).round() as usize } else { 0 };
         let mut explorers: Vec<Controller> = (0..c.samples - greedy).map(|_| self.laws.draw(rng)).collect();
         if let Some(best) = &self.best {
@@ -392,14 +396,14 @@ impl ModelSearch {
             })?;
             if traces.ends.len() != values.len() {
                 let why =
-                    "sampled by a backend's workers (expected episodes run here: their steps do not come back yet)";
-                return Err(Error::invalid("world", why));
+                    format!("the steps of {} of {} episodes came back (expected all)", traces.ends.len(), values.len());
+                return Err(Error::World(why));
             }
             self.traces.append(traces);
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
         }
         self.traces.keep_last(c.memory_steps);
-        Ok(means)
+        Ok((explorers, means))
     }
 
     /// The rounds of the cross-entropy method over the memory's laws on the model of the kept
@@ -437,9 +441,10 @@ impl ModelSearch {
         plans
     }
 
-    /// Values the `confirm` best distinct plans of each family, and the best so far, on the
-    /// iteration's selection episodes (fresh ones, the same for all); the best plan replaces the
-    /// best so far where it beats it on them (then true), else they add to its value.
+    /// Values the `confirm` best distinct plans of each family, the `challenger` (the best
+    /// explorer) and the best so far on the iteration's selection episodes (fresh ones, the same
+    /// for all); the best of the others replaces the best so far where it beats it on them (then
+    /// true), else they add to its value.
     fn confirm<const F: usize>(
         &mut self,
         world: &dyn Episodes,
@@ -447,6 +452,7 @@ impl ModelSearch {
         iteration: usize,
         sizes: Sizes,
         families: [Vec<Plan>; F],
+        challenger: Option<Controller>,
     ) -> Result<bool> {
         let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
@@ -463,6 +469,9 @@ impl ModelSearch {
                     taken += 1;
                 }
             }
+        }
+        if let Some(e) = challenger.filter(|e| !few.contains(e) && held != Some(e)) {
+            few.push(e);
         }
         let plans = few.len();
         few.extend(held.cloned());
