@@ -133,8 +133,8 @@ fn set(bits: u32) -> impl Iterator<Item = usize> {
 impl Lens {
     /// Every lens of at most `most` features (observations of lags below `window`, decisions of
     /// lags 1 to `window - 1`, the first observation), each that looks at an observation once per
-    /// non-empty view of its parts, whose machine has at most `max_nodes` nodes, fewest features
-    /// first.
+    /// view (each part alone, the whole observation), whose machine has at most `max_nodes` nodes,
+    /// fewest features first.
     pub fn all(window: usize, most: usize, sizes: Sizes, max_nodes: usize) -> Vec<Lens> {
         let window = window.min(31);
         // Feature k: observation lag k (k < window), decision lag k - window + 1, the first.
@@ -150,10 +150,13 @@ impl Lens {
             }
             l
         };
-        let views = |l: Lens| {
+        // One part or the whole observation (views of several parts among many would multiply
+        // the lenses by their subsets).
+        let parts = if sizes.parts > 1 { sizes.parts } else { 0 };
+        let views = move |l: Lens| {
             let looks = l.lags != 0 || l.first;
-            let views = if looks { 1..=sizes.whole() } else { sizes.whole()..=sizes.whole() };
-            views.map(move |view| Lens { view, ..l })
+            let one = (0..if looks { parts } else { 0 }).map(|f| 1 << f);
+            one.chain([sizes.whole()]).map(move |view| Lens { view, ..l })
         };
         let mut lenses: Vec<Lens> = subsets(features, most)
             .iter()
@@ -337,6 +340,11 @@ mod tests {
         // None; the current, the previous and the first observation, three views each; the
         // decision before.
         assert_eq!(all.len(), 1 + 3 * 3 + 1);
+        // Of three parts, each alone or the whole: four views of the current and of the first
+        // observation.
+        let three = Sizes::parts(12, 2, &[2, 3, 2]);
+        let views: Vec<u32> = Lens::all(1, 1, three, usize::MAX).iter().map(|l| l.view).collect();
+        assert_eq!(views, [0b111, 0b001, 0b010, 0b100, 0b111, 0b001, 0b010, 0b100, 0b111]);
     }
 
     /// Episodes of three observations of six values, decided by `machine`.
