@@ -13,8 +13,10 @@
 //! refitting the laws; and every lens of at most `lens_features` features ([`Lens`]: lags of the
 //! last `window` observations and decisions, the first observation) planned and valued the same way.
 //! (3) Confirms: the `confirm` best plans of each family, the explorer that did best on its own
-//! episodes and the best so far are valued on the iteration's selection episodes; the best of the
-//! others replaces the best so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
+//! episodes, the best so far with each decision row credited by the greedy explorers' steps (model
+//! §8's credit within episodes) and the best so far are valued on the iteration's selection
+//! episodes; the best of the others replaces the best so far where it beats it on them, else they
+//! add to its value. A stepped optimiser (`ceworld run model-search`,
 //! `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 use rayon::prelude::*;
@@ -179,9 +181,9 @@ impl Stepped for ModelSearch {
 
     fn episodes(c: &ModelSearchConfig) -> usize {
         // The explorers; the plans of each family and the best so far on the selection episodes.
-        // The best explorer, the best so far.
+        // The best explorer, the credited best so far, the best so far.
         let families = if c.window > 0 { 2 } else { 1 };
-        c.samples.saturating_mul(c.episodes) + (families * c.confirm + 2).saturating_mul(c.select_episodes)
+        c.samples.saturating_mul(c.episodes) + (families * c.confirm + 3).saturating_mul(c.select_episodes)
     }
 
     fn validate(c: &ModelSearchConfig) -> Result<()> {
@@ -255,16 +257,18 @@ impl Stepped for ModelSearch {
         // The explorers and the search start as wide as the laws widened by `explore`: the data
         // have grown since the last iteration's laws were fitted on fewer steps.
         self.laws.inject(c.explore);
-        let (explorers, explored) = self.explore(world, c, iteration, &mut rng, spent)?;
-        // The explorer that did best on its own episodes challenges the plans.
+        let (explorers, explored, credited) = self.explore(world, c, iteration, &mut rng, spent)?;
+        // The explorer that did best on its own episodes and the credited best so far challenge
+        // the plans.
         let first_best = |b: usize, i: usize| if explored[i] > explored[b] { i } else { b };
-        let challenger = (!explored.is_empty()).then(|| explorers[(0..explored.len()).fold(0, first_best)].clone());
+        let best_explorer = (!explored.is_empty()).then(|| explorers[(0..explored.len()).fold(0, first_best)].clone());
+        let challengers: Vec<Controller> = best_explorer.into_iter().chain(credited).collect();
         let shape = world.shape();
         let sizes = Sizes::of(shape, &world.description());
         let (tables, elite) = self.search(sizes, c, &mut rng);
         let lenses = self.lenses(sizes, c);
         let successful = if self.best.is_none() || !spent() {
-            self.confirm(world, c, iteration, sizes, [tables, lenses], challenger)?
+            self.confirm(world, c, iteration, sizes, [tables, lenses], challengers)?
         } else {
             false
         };
@@ -355,10 +359,30 @@ fn perturb(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Co
     c
 }
 
+/// `c` with each decision row taking the decision of highest mean credit there (`sums / visits`
+/// at `row · actions + decision`; equal means keep the lower decision), where one was seen.
+fn credited_best(c: &Controller, visits: &[u64], sums: &[f64], actions: usize) -> Controller {
+    let mut c = c.clone();
+    let decisions = if c.is_mealy() { &mut c.on } else { &mut c.act };
+    for (r, d) in decisions.iter_mut().enumerate() {
+        let mean = |e: usize| sums[r * actions + e] / visits[r * actions + e] as f64;
+        let seen = (0..actions).filter(|&e| visits[r * actions + e] > 0);
+        if let Some(e) =
+            seen.fold(None, |b: Option<usize>, e| if b.is_none_or(|b| mean(e) > mean(b)) { Some(e) } else { b })
+        {
+            *d = e as u32;
+        }
+    }
+    c
+}
+
 impl ModelSearch {
-    /// Runs the iteration's explorers, keeping their steps: the explorers and the mean values of
-    /// those run (the budget may cut them). They are drawn from the laws, and a `greedy` share of
-    /// them is the best so far with `explore` of its decisions drawn again.
+    /// Runs the iteration's explorers, keeping their steps: the explorers, the mean values of
+    /// those run (the budget may cut them) and the best so far credited by the greedy ones. They
+    /// are drawn from the laws, and a `greedy` share of them is the best so far with `explore` of
+    /// its decisions drawn again: each decision row of the best so far then takes the decision
+    /// whose steps in that row had the highest mean value still to come in the world (model §8's
+    /// credit within episodes, over the greedy explorers), which needs no model.
     fn explore(
         &mut self,
         world: &dyn Episodes,
@@ -366,7 +390,7 @@ impl ModelSearch {
         iteration: usize,
         rng: &mut EngineRng,
         spent: &dyn Fn() -> bool,
-    ) -> Result<(Vec<Controller>, Vec<f64>)> {
+    ) -> Result<(Vec<Controller>, Vec<f64>, Option<Controller>)> {
         let greedy = if self.best.is_some() { (c.greedy * c.samples as f64).round() as usize } else { 0 };
         let mut explorers: Vec<Controller> = (0..c.samples - greedy).map(|_| self.laws.draw(rng)).collect();
         if let Some(best) = &self.best {
@@ -376,7 +400,12 @@ impl ModelSearch {
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         let group = super::group_size(world.batch(), c.episodes);
         let mut means = Vec::with_capacity(c.samples);
-        for chunk in explorers.chunks(group) {
+        let first_greedy = c.samples - greedy;
+        let a = world.shape().decisions;
+        let held_rows = self.best.as_ref().map_or(0, |b| StepCredit::rows_of(&b.controller));
+        // Per (row of the best so far, decision): the greedy explorers' steps and summed credit.
+        let (mut visits, mut sums) = (vec![0u64; held_rows * a], vec![0.0; held_rows * a]);
+        for (k, chunk) in explorers.chunks(group).enumerate() {
             if !means.is_empty() && spent() {
                 break;
             }
@@ -401,9 +430,16 @@ impl ModelSearch {
             }
             self.traces.append(traces);
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
+            for (i, e) in chunk.iter().enumerate().filter(|&(i, _)| k * group + i >= first_greedy) {
+                for (r, &d) in e.decisions().iter().enumerate() {
+                    visits[r * a + d as usize] += u64::from(credit.visits[i * rows + r]);
+                    sums[r * a + d as usize] += credit.sums[i * rows + r];
+                }
+            }
         }
         self.traces.keep_last(c.memory_steps);
-        Ok((explorers, means))
+        let credited = self.best.as_ref().filter(|_| visits.iter().any(|&v| v > 0));
+        Ok((explorers, means, credited.map(|b| credited_best(&b.controller, &visits, &sums, a))))
     }
 
     /// The rounds of the cross-entropy method over the memory's laws on the model of the kept
@@ -441,10 +477,10 @@ impl ModelSearch {
         plans
     }
 
-    /// Values the `confirm` best distinct plans of each family, the `challenger` (the best
-    /// explorer) and the best so far on the iteration's selection episodes (fresh ones, the same
-    /// for all); the best of the others replaces the best so far where it beats it on them (then
-    /// true), else they add to its value.
+    /// Values the `confirm` best distinct plans of each family, the `challengers` (the best
+    /// explorer, the credited best so far) and the best so far on the iteration's selection
+    /// episodes (fresh ones, the same for all); the best of the others replaces the best so far
+    /// where it beats it on them (then true), else they add to its value.
     fn confirm<const F: usize>(
         &mut self,
         world: &dyn Episodes,
@@ -452,7 +488,7 @@ impl ModelSearch {
         iteration: usize,
         sizes: Sizes,
         families: [Vec<Plan>; F],
-        challenger: Option<Controller>,
+        challengers: Vec<Controller>,
     ) -> Result<bool> {
         let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
@@ -470,8 +506,10 @@ impl ModelSearch {
                 }
             }
         }
-        if let Some(e) = challenger.filter(|e| !few.contains(e) && held != Some(e)) {
-            few.push(e);
+        for e in challengers {
+            if !few.contains(&e) && held != Some(&e) {
+                few.push(e);
+            }
         }
         let plans = few.len();
         few.extend(held.cloned());
@@ -494,5 +532,27 @@ impl ModelSearch {
             None => return Ok(false),
         }
         Ok(true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_row_of_the_best_takes_the_decision_of_highest_mean_credit_where_one_was_seen() {
+        // A Mealy machine of one node and three observations (rows), three decisions.
+        let best = Controller::mealy(vec![0, 1, 2], vec![0, 0, 0], 3);
+        // Row 0: decision 0 means 1.0, decision 2 means 1.5; row 1: decisions 0 and 1 tie at
+        // 2.0 (the lower kept); row 2: never met.
+        let visits = [2, 0, 2, 1, 1, 0, 0, 0, 0];
+        let sums = [2.0, 0.0, 3.0, 2.0, 2.0, 0.0, 0.0, 0.0, 0.0];
+        assert_eq!(credited_best(&best, &visits, &sums, 3).on, vec![2, 0, 2]);
+        // A Moore machine's rows are its nodes.
+        let moore = Controller::moore(vec![1, 1], vec![0, 1, 0, 1]);
+        let credited = credited_best(&moore, &[0, 0, 3, 1], &[0.0, 0.0, 3.0, 4.0], 2);
+        assert_eq!((credited.act, credited.next), (vec![1, 1], moore.next.clone()));
+        let credited = credited_best(&moore, &[3, 1, 0, 0], &[3.0, 0.5, 0.0, 0.0], 2);
+        assert_eq!(credited.act, vec![0, 1]);
     }
 }
