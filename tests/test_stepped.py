@@ -76,6 +76,42 @@ def test_the_command_line_runs_it_by_name(tmp_path: Path) -> None:
     assert bad.returncode == 2 and "invalid nodes: 0" in bad.stderr
 
 
+class EchoNoisy:
+    """A ``Box`` observation of two parts, a noise and a card (0 or 1): each step after the first
+    pays 1 for naming the card one step back (8 steps: 7 at best)."""
+
+    def __init__(self) -> None:
+        import gymnasium
+
+        self.observation_space = gymnasium.spaces.Box(0.0, 1.0, shape=(2,))
+        self.action_space = gymnasium.spaces.Discrete(2)
+        self.rng = np.random.default_rng(0)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[np.ndarray, dict]:
+        self.rng = np.random.default_rng(seed)
+        self.t, self.before = 0, -1
+        return self._observe(), {}
+
+    def _observe(self) -> np.ndarray:
+        self.card = int(self.rng.integers(2))
+        return np.array([self.rng.random(), float(self.card)], dtype=np.float32)
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict]:
+        reward = float(int(action) == self.before)
+        self.before, self.t = self.card, self.t + 1
+        return self._observe(), reward, False, self.t >= 8, {}
+
+
+def test_the_search_of_memories_looks_at_the_parts_of_a_box_observation() -> None:
+    # Issue 47: the encoding's bins per dimension reach the engine (the description's radices),
+    # whose lenses may look at the card's dimension alone, a step back.
+    world = cehmm.PythonWorld(EchoNoisy(), horizon=8)
+    assert world.description["spaces"]["observation"]["radices"] == [8, 3]
+    settings = dict(memories=50, rounds=3, threads=1, seed=0, eval_episodes=200, progress=False)
+    result = cehmm.run("model-search", world, max_env_steps=10_000, **settings)
+    assert result.evaluation.mean == 7.0
+
+
 def test_the_search_of_memories_on_the_model_of_every_step_learns_a_latch_within_its_budget() -> None:
     # Issue 47: the T-maze's cue held through a corridor of 4, learnt from 20,000 steps of the
     # world (every step serving every memory ranked on the model), its value the optimum.
