@@ -107,7 +107,7 @@ impl Default for ModelSearchConfig {
             smoothing: 0.5,
             pessimism: 0.1,
             lookahead: 1,
-            confirm: 1,
+            confirm: 3,
             select_episodes: 20,
             memory_steps: 200_000,
             window: 8,
