@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from cehmm.benchmarks import memory, memory_report
+from cehmm.reproduce.records import append_record
 
 
 def test_a_budget_is_steps_or_seconds() -> None:
@@ -55,6 +56,22 @@ def test_the_command_writes_data_and_page_and_resumes(tmp_path: Path) -> None:
     assert "| t-maze-10 | 1 |" in page and "| 5k |" in page
     assert memory.main(argv) == 0
     assert (tmp_path / "data" / "memory.jsonl").read_text().splitlines() == data
+
+
+def test_the_page_is_of_the_data_as_it_is_when_the_run_ends(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # Another run at once appends its cell while this one runs: the page shows both.
+    data = tmp_path / "data" / "memory.jsonl"
+    ours = memory._run_all
+
+    def with_another(*args: object) -> object:
+        record = {"task": "t-maze-10", "method": "memoryless", "budget": "5k", "seed": 0, "value": 0.123}
+        append_record(data, {**record, "std_error": 0.0, "env_steps": 5000, "seconds": 1.0, "episodes": 20})
+        return ours(*args)
+
+    monkeypatch.setattr(memory, "_run_all", with_another)
+    argv = ["--quick", "--methods", "random", "--episodes", "20", "--out", str(tmp_path)]
+    assert memory.main(argv) == 0
+    assert "0.123" in (tmp_path / "memory-benchmark.md").read_text()
 
 
 def test_the_page_shows_the_rival_beside_the_seeds_range() -> None:

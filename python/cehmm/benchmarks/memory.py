@@ -274,8 +274,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     flush=True,
                 )
                 append_record(data, record)
-                records.append(record)
-    write_page(args.out, records, TASKS, _budget_order)
+    # The page of the data as it is now: other runs may have added cells (or a cell been dropped)
+    # since this one read it.
+    write_page(args.out, read_records(data), TASKS, _budget_order)
     return 0
 
 
