@@ -186,7 +186,8 @@ impl Pending for Waiting<'_> {
 /// A backend's answer of episodes, then the world's steps they took (a whole number, as a
 /// float): the two apart.
 fn with_steps<'a>(answer: &'a [f64], method: &str) -> ceworld::Result<(&'a [f64], u64)> {
-    let (&steps, values) = answer.split_last().expect("an answer of at least one number");
+    let (&steps, values) =
+        answer.split_last().ok_or_else(|| Error::World(format!("the backend's {method} gave no number")))?;
     if !(steps >= 0.0 && steps.fract() == 0.0 && steps < 2f64.powi(53)) {
         return Err(Error::World(format!(
             "the backend's {method} ended with {steps} steps (expected the world's steps: a whole number >= 0)"
@@ -259,9 +260,6 @@ impl Episodes for Remote {
                 Ok((text, streams.seed, purpose, streams.iteration, episodes).into_pyobject(py)?.unbind())
             };
             let answer = self.ask::<f64>(CONTROLLER_STEPS, args, None)?;
-            if answer.is_empty() {
-                return Err(Error::World(format!("the backend's {CONTROLLER_STEPS} gave no number")));
-            }
             let (answer, steps) = with_steps(&answer, CONTROLLER_STEPS)?;
             let credited = credit.add_steps(answer, controllers, self.shape.observations, values, episodes)?;
             return Ok((steps, credited));

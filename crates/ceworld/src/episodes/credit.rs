@@ -116,9 +116,9 @@ impl StepCredit {
         let traces = self.traces.as_ref().filter(|t| credited && t.ends.len() == values.len());
         let mut ranges = traces.map(Traces::episodes);
         let mut out = Vec::with_capacity(4 * values.len() + 2 * traces.map_or(0, Traces::steps));
+        let gamma = traces.map_or(1.0, |t| t.gamma);
         for &value in values {
             let range = ranges.as_mut().and_then(Iterator::next).unwrap_or(0..0);
-            let gamma = traces.map_or(1.0, |t| t.gamma);
             out.extend([value, f64::from(u8::from(traces.is_some())), gamma, range.len() as f64]);
             if let Some(t) = traces {
                 out.extend(t.obs[range.clone()].iter().map(|&y| f64::from(y)));

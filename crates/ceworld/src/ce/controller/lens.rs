@@ -56,7 +56,8 @@ impl Sizes {
     }
 
     /// `y` observations made of parts of `radices` values each (one part where they are more
-    /// than [`MOST_PARTS`], fewer than two, or their product is not `y`).
+    /// than [`MOST_PARTS`], fewer than two, one of them has a single value, or their product is
+    /// not `y`).
     pub fn parts(y: usize, a: usize, radices: &[usize]) -> Sizes {
         let product = radices.iter().try_fold(1usize, |p, &r| p.checked_mul(r));
         if radices.len() < 2 || radices.len() > MOST_PARTS || product != Some(y) || radices.contains(&1) {

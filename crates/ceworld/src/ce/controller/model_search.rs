@@ -359,21 +359,21 @@ fn perturb(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Co
     c
 }
 
-/// `c` with each decision row taking the decision of highest mean credit there (`sums / visits`
-/// at `row · actions + decision`; equal means keep the lower decision), where one was seen.
-fn credited_best(c: &Controller, visits: &[u64], sums: &[f64], actions: usize) -> Controller {
+/// `c` with each decision row taking the best decision of `greedy`'s steps there
+/// ([`StepCredit::best`] of `credit`, the credit of the first of them, in `c`'s rows), where
+/// one was seen; `None` where none was.
+fn credited_best(c: &Controller, credit: &StepCredit, greedy: &[Controller], actions: usize) -> Option<Controller> {
+    let run = credit.visits.len().checked_div(credit.rows).unwrap_or(0);
+    let best = credit.best(greedy[..run].iter().map(Controller::decisions).enumerate(), actions);
+    if best.iter().all(Option::is_none) {
+        return None;
+    }
     let mut c = c.clone();
     let decisions = if c.is_mealy() { &mut c.on } else { &mut c.act };
-    for (r, d) in decisions.iter_mut().enumerate() {
-        let mean = |e: usize| sums[r * actions + e] / visits[r * actions + e] as f64;
-        let seen = (0..actions).filter(|&e| visits[r * actions + e] > 0);
-        if let Some(e) =
-            seen.fold(None, |b: Option<usize>, e| if b.is_none_or(|b| mean(e) > mean(b)) { Some(e) } else { b })
-        {
-            *d = e as u32;
-        }
+    for (d, best) in decisions.iter_mut().zip(best) {
+        *d = best.unwrap_or(*d);
     }
-    c
+    Some(c)
 }
 
 impl ModelSearch {
@@ -393,18 +393,17 @@ impl ModelSearch {
     ) -> Result<(Vec<Controller>, Vec<f64>, Option<Controller>)> {
         let greedy = if self.best.is_some() { (c.greedy * c.samples as f64).round() as usize } else { 0 };
         let mut explorers: Vec<Controller> = (0..c.samples - greedy).map(|_| self.laws.draw(rng)).collect();
+        let a = world.shape().decisions;
         if let Some(best) = &self.best {
-            let actions = world.shape().decisions;
-            explorers.extend((0..greedy).map(|_| perturb(&best.controller, c.explore, actions, rng)));
+            explorers.extend((0..greedy).map(|_| perturb(&best.controller, c.explore, a, rng)));
         }
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         let group = super::group_size(world.batch(), c.episodes);
         let mut means = Vec::with_capacity(c.samples);
         let first_greedy = c.samples - greedy;
-        let a = world.shape().decisions;
         let held_rows = self.best.as_ref().map_or(0, |b| StepCredit::rows_of(&b.controller));
-        // Per (row of the best so far, decision): the greedy explorers' steps and summed credit.
-        let (mut visits, mut sums) = (vec![0u64; held_rows * a], vec![0.0; held_rows * a]);
+        // The greedy explorers' credit, in the rows of the best so far (they share its shape).
+        let mut greedy_credit = StepCredit::new(0, held_rows);
         for (k, chunk) in explorers.chunks(group).enumerate() {
             if !means.is_empty() && spent() {
                 break;
@@ -430,16 +429,17 @@ impl ModelSearch {
             }
             self.traces.append(traces);
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
-            for (i, e) in chunk.iter().enumerate().filter(|&(i, _)| k * group + i >= first_greedy) {
-                for (r, &d) in e.decisions().iter().enumerate() {
-                    visits[r * a + d as usize] += u64::from(credit.visits[i * rows + r]);
-                    sums[r * a + d as usize] += credit.sums[i * rows + r];
-                }
+            for i in (0..chunk.len()).filter(|&i| k * group + i >= first_greedy) {
+                greedy_credit.visits.extend_from_slice(&credit.visits[i * rows..i * rows + held_rows]);
+                greedy_credit.sums.extend_from_slice(&credit.sums[i * rows..i * rows + held_rows]);
             }
         }
         self.traces.keep_last(c.memory_steps);
-        let credited = self.best.as_ref().filter(|_| visits.iter().any(|&v| v > 0));
-        Ok((explorers, means, credited.map(|b| credited_best(&b.controller, &visits, &sums, a))))
+        let credited = self
+            .best
+            .as_ref()
+            .and_then(|b| credited_best(&b.controller, &greedy_credit, &explorers[first_greedy..], a));
+        Ok((explorers, means, credited))
     }
 
     /// The rounds of the cross-entropy method over the memory's laws on the model of the kept
@@ -541,18 +541,30 @@ mod tests {
 
     #[test]
     fn each_row_of_the_best_takes_the_decision_of_highest_mean_credit_where_one_was_seen() {
-        // A Mealy machine of one node and three observations (rows), three decisions.
+        // A Mealy machine of one node and three observations (rows), three decisions; two greedy
+        // explorers decide (0, 0, 2) and (2, 1, 2).
         let best = Controller::mealy(vec![0, 1, 2], vec![0, 0, 0], 3);
+        let greedy =
+            [Controller::mealy(vec![0, 0, 2], vec![0, 0, 0], 3), Controller::mealy(vec![2, 1, 2], vec![0, 0, 0], 3)];
         // Row 0: decision 0 means 1.0, decision 2 means 1.5; row 1: decisions 0 and 1 tie at
         // 2.0 (the lower kept); row 2: never met.
-        let visits = [2, 0, 2, 1, 1, 0, 0, 0, 0];
-        let sums = [2.0, 0.0, 3.0, 2.0, 2.0, 0.0, 0.0, 0.0, 0.0];
-        assert_eq!(credited_best(&best, &visits, &sums, 3).on, vec![2, 0, 2]);
-        // A Moore machine's rows are its nodes.
+        let credit = StepCredit {
+            rows: 3,
+            visits: vec![2, 1, 0, 2, 1, 0],
+            sums: vec![2.0, 2.0, 0.0, 3.0, 2.0, 0.0],
+            traces: None,
+        };
+        assert_eq!(credited_best(&best, &credit, &greedy, 3).unwrap().on, vec![2, 0, 2]);
+        // A Moore machine's rows are its nodes; an explorer the budget cut has no credit.
         let moore = Controller::moore(vec![1, 1], vec![0, 1, 0, 1]);
-        let credited = credited_best(&moore, &[0, 0, 3, 1], &[0.0, 0.0, 3.0, 4.0], 2);
+        let cut = [moore.clone(), Controller::moore(vec![0, 0], vec![0, 1, 0, 1])];
+        let credit = StepCredit { rows: 2, visits: vec![0, 1], sums: vec![0.0, 4.0], traces: None };
+        let credited = credited_best(&moore, &credit, &cut, 2).unwrap();
         assert_eq!((credited.act, credited.next), (vec![1, 1], moore.next.clone()));
-        let credited = credited_best(&moore, &[3, 1, 0, 0], &[3.0, 0.5, 0.0, 0.0], 2);
-        assert_eq!(credited.act, vec![0, 1]);
+        let both = StepCredit { rows: 2, visits: vec![3, 0, 1, 0], sums: vec![3.0, 0.0, 0.5, 0.0], traces: None };
+        let two = [Controller::moore(vec![0, 1], vec![0, 1, 0, 1]), moore.clone()];
+        assert_eq!(credited_best(&moore, &both, &two, 2).unwrap().act, vec![0, 1]);
+        let never = StepCredit { rows: 2, visits: vec![0, 0], sums: vec![0.0, 0.0], traces: None };
+        assert_eq!(credited_best(&moore, &never, &cut, 2), None);
     }
 }
