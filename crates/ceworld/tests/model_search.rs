@@ -1,11 +1,11 @@
 //! The search of memories on the model of every step (issue 47, `model-search`): it learns a
 //! task that needs memory within a small budget of the world's steps, the same whatever the
-//! thread count, resumes from its checkpoint bit for bit, and refuses a world whose value is not
+//! thread count, keeps the steps of its selection episodes as well as its explorers', resumes from its checkpoint bit for bit, and refuses a world whose value is not
 //! the sum of its steps' rewards, naming why.
 
 use ceworld::ce::budget::Budget;
 use ceworld::ce::controller::model_search::{ModelSearch, ModelSearchConfig};
-use ceworld::ce::stepped::{Rules, run_stepped};
+use ceworld::ce::stepped::{Rules, Stepped, run_stepped};
 use ceworld::episodes::Shape;
 use ceworld::episodes::outside::{BatchWorld, Lockstep, Recorded, StepOut};
 use ceworld::{Checkpointing, Error, Flow, StopReason};
@@ -117,6 +117,20 @@ fn a_memory_is_learnt_from_every_step_within_a_small_budget() {
     // The same search whatever the thread count.
     let two = run_stepped::<ModelSearch>(&world(false), &config(6000, 2), None, |_| Flow::Continue).unwrap();
     assert_eq!((two.policy, two.env_steps), (outcome.policy, outcome.env_steps));
+}
+
+#[test]
+fn the_selection_episodes_serve_the_model_too() {
+    let (w, c) = (world(false), config(0, 1));
+    let mut search = ModelSearch::start(&w, &c).unwrap();
+    search.step(&w, &c, 0, &|| false).unwrap();
+    // The explorers' episodes, then those of each distinct candidate on the selection episodes
+    // (three plans of each family at most, the best explorer; no best so far yet).
+    let (explored, kept) = (c.samples * c.episodes, search.traces.episodes().count());
+    let confirmed = (kept - explored) / c.select_episodes;
+    assert_eq!((kept - explored) % c.select_episodes, 0, "{kept}");
+    assert!((2..=2 * c.confirm + 1).contains(&confirmed), "{confirmed}");
+    assert_eq!(search.traces.steps(), kept * HORIZON);
 }
 
 #[test]

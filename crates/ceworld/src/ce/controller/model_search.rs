@@ -15,8 +15,8 @@
 //! (3) Confirms: the `confirm` best plans of each family, the explorer that did best on its own
 //! episodes, the best so far with each decision row credited by the greedy explorers' steps (model
 //! §8's credit within episodes) and the best so far are valued on the iteration's selection
-//! episodes; the best of the others replaces the best so far where it beats it on them, else they
-//! add to its value. A stepped optimiser (`ceworld run model-search`,
+//! episodes, whose steps are kept as the explorers' are; the best of the others replaces the best
+//! so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
 //! `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 use rayon::prelude::*;
@@ -413,21 +413,7 @@ impl ModelSearch {
             // steps are read).
             let rows = chunk.iter().map(StepCredit::rows_of).max().unwrap_or(0);
             let mut credit = StepCredit::traced(chunk.len(), rows);
-            let (_, credited) = world.run_controllers_credited(chunk, streams, c.episodes, &mut values, &mut credit)?;
-            let traces = credit.traces.take().filter(|_| credited).ok_or_else(|| {
-                Error::invalid(
-                    "world",
-                    "a world whose value is not the (discounted) sum of its steps' rewards (expected one that \
-                     gives them, as a .pomdp file's, a world in Python or Gymnasium's: model-search learns \
-                     from every step)",
-                )
-            })?;
-            if traces.ends.len() != values.len() {
-                let why =
-                    format!("the steps of {} of {} episodes came back (expected all)", traces.ends.len(), values.len());
-                return Err(Error::World(why));
-            }
-            self.traces.append(traces);
+            self.run_kept(world, chunk, streams, c.episodes, &mut values, &mut credit)?;
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
             for i in (0..chunk.len()).filter(|&i| k * group + i >= first_greedy) {
                 greedy_credit.visits.extend_from_slice(&credit.visits[i * rows..i * rows + held_rows]);
@@ -440,6 +426,35 @@ impl ModelSearch {
             .as_ref()
             .and_then(|b| credited_best(&b.controller, &greedy_credit, &explorers[first_greedy..], a));
         Ok((explorers, means, credited))
+    }
+
+    /// Runs `controllers` as [`Episodes::run_controllers_credited`] does and keeps every step of
+    /// their episodes for the model.
+    fn run_kept(
+        &mut self,
+        world: &dyn Episodes,
+        controllers: &[Controller],
+        streams: Streams,
+        episodes: usize,
+        values: &mut [f64],
+        credit: &mut StepCredit,
+    ) -> Result<()> {
+        let (_, credited) = world.run_controllers_credited(controllers, streams, episodes, values, credit)?;
+        let traces = credit.traces.take().filter(|_| credited).ok_or_else(|| {
+            Error::invalid(
+                "world",
+                "a world whose value is not the (discounted) sum of its steps' rewards (expected one that \
+                 gives them, as a .pomdp file's, a world in Python or Gymnasium's: model-search learns \
+                 from every step)",
+            )
+        })?;
+        if traces.ends.len() != values.len() {
+            let why =
+                format!("the steps of {} of {} episodes came back (expected all)", traces.ends.len(), values.len());
+            return Err(Error::World(why));
+        }
+        self.traces.append(traces);
+        Ok(())
     }
 
     /// The rounds of the cross-entropy method over the memory's laws on the model of the kept
@@ -516,7 +531,10 @@ impl ModelSearch {
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Select, iteration: iteration as u64 };
         let m = c.select_episodes;
         let mut values = vec![0.0; few.len() * m];
-        world.run_controllers(&few, streams, m, &mut values)?;
+        // The selection episodes' steps serve the model too.
+        let rows = few.iter().map(StepCredit::rows_of).max().unwrap_or(0);
+        self.run_kept(world, &few, streams, m, &mut values, &mut StepCredit::traced(few.len(), rows))?;
+        self.traces.keep_last(c.memory_steps);
         let scores: Vec<f64> = values.chunks(m).map(|v| mean(v.iter().copied())).collect();
         let k = (0..plans).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
         let fresh = |k: usize| Incumbent { controller: few[k].clone(), value: scores[k], episodes: m };
