@@ -112,7 +112,7 @@ fn a_memory_is_learnt_from_every_step_within_a_small_budget() {
     // Cut at a group of episodes: past the budget by less than one iteration's episodes (the
     // explorers; three plans of each family, two challengers and the best so far on the
     // selection episodes).
-    let iteration = (16 * 4 + 9 * 20) * HORIZON as u64;
+    let iteration = (16 * 4 + 9 * 10) * HORIZON as u64;
     assert!(outcome.env_steps >= 6000 && outcome.env_steps < 6000 + iteration, "{}", outcome.env_steps);
     // The same search whatever the thread count.
     let two = run_stepped::<ModelSearch>(&world(false), &config(6000, 2), None, |_| Flow::Continue).unwrap();

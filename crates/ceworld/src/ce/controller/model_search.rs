@@ -108,7 +108,7 @@ impl Default for ModelSearchConfig {
             pessimism: 0.1,
             lookahead: 1,
             confirm: 3,
-            select_episodes: 20,
+            select_episodes: 10,
             memory_steps: 200_000,
             window: 8,
             lens_features: 3,
