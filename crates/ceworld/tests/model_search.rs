@@ -1,7 +1,8 @@
 //! The search of memories on the model of every step (issue 47, `model-search`): it learns a
 //! task that needs memory within a small budget of the world's steps, the same whatever the
-//! thread count, keeps the steps of its selection episodes as well as its explorers', resumes from its checkpoint bit for bit, and refuses a world whose value is not
-//! the sum of its steps' rewards, naming why.
+//! thread count, keeps the steps of its selection episodes as well as its explorers', resumes
+//! from its checkpoint bit for bit, and refuses a world whose value is not the sum of its steps'
+//! rewards, naming why.
 
 use ceworld::ce::budget::Budget;
 use ceworld::ce::controller::model_search::{ModelSearch, ModelSearchConfig};

@@ -16,8 +16,8 @@
 //! episodes, the best so far with each decision row credited by the greedy explorers' steps (model
 //! §8's credit within episodes) and the best so far are valued on the iteration's selection
 //! episodes, whose steps are kept as the explorers' are; the best of the others replaces the best
-//! so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run model-search`,
-//! `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
+//! so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run
+//! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
