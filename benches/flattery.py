@@ -37,7 +37,9 @@ def state(history: list[int], lag: int) -> int:
     return (history[t - lag] + 1 if t >= lag else 0) * 4 + history[t]
 
 
-def play(env: CountRecallEasy, n: int, behaviour: Callable[[], Callable[[int], tuple[int, float]]], rng) -> list:
+def play(
+    env: CountRecallEasy, n: int, behaviour: Callable[[], Callable[[int], tuple[int, float]]], rng: np.random.Generator
+) -> list[list[Step]]:
     episodes = []
     for _ in range(n):
         obs, _ = env.reset(seed=int(rng.integers(1 << 30)))
@@ -59,14 +61,15 @@ def pairs(episodes: list[list[Step]], lag: int, actions: int, weighted: bool) ->
         history: list[int] = []
         for y, d, r, p in steps:
             history.append(y)
-            w = 1.0 / p if weighted else 1.0
-            sums[state(history, lag), d] += w * r
-            weights[state(history, lag), d] += w
+            s, w = state(history, lag), 1.0 / p if weighted else 1.0
+            sums[s, d] += w * r
+            weights[s, d] += w
     with np.errstate(invalid="ignore", divide="ignore"):
         return sums / weights
 
 
 def model_value(plan: np.ndarray, mean: np.ndarray, episodes: list[list[Step]], lag: int) -> float:
+    """The mean over ``episodes`` of the summed mean rewards of ``plan``'s pairs (0 where never taken)."""
     total = 0.0
     for steps in episodes:
         history: list[int] = []
