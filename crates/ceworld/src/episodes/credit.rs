@@ -41,12 +41,15 @@ impl StepCredit {
         c.decisions().len()
     }
 
-    /// Adds one episode of controller `c` (index `index` in the set), of value `value`: its
-    /// steps' (observation, reward), the rewards discounted by `gamma`. The nodes are the
-    /// controller's own (it draws none): they are run again here.
+    /// Adds episode `episode` of controller `c` (index `index` in the set), of value `value`:
+    /// its steps' (observation, reward), the rewards discounted by `gamma`. The nodes are the
+    /// controller's own (an explorer's draws change its decisions, not its nodes): they are run
+    /// again here.
+    #[allow(clippy::too_many_arguments)]
     pub fn add(
         &mut self,
         index: usize,
+        episode: u64,
         c: &Controller,
         n_obs: usize,
         steps: impl Iterator<Item = (usize, f64)> + Clone,
@@ -55,20 +58,13 @@ impl StepCredit {
     ) {
         if let Some(traces) = self.traces.as_mut() {
             traces.gamma = gamma;
-            traces.add(c, n_obs, steps.clone());
+            traces.add(c, n_obs, episode, steps.clone());
         }
         let base = index * self.rows;
-        let (mut node, mut before, mut factor) = (0u32, 0.0, 1.0);
-        for (y, r) in steps {
-            let from = node as usize;
-            c.step(&mut node, y, n_obs);
-            // A Mealy machine decides in the node it left, a Moore machine in the one it enters.
-            let row = if c.is_mealy() { from * n_obs + y } else { node as usize };
+        to_come(c, n_obs, steps, gamma, value, |_, row, credit| {
             self.visits[base + row] += 1;
-            self.sums[base + row] += value - before;
-            before += factor * r;
-            factor *= gamma;
-        }
+            self.sums[base + row] += credit;
+        });
     }
 
     /// Numbers per controller of [`StepCredit::to_blocks`]: whether credited, the values of its
@@ -161,7 +157,7 @@ impl StepCredit {
             if flag == 1.0 {
                 let c = &controllers[i / episodes];
                 let steps = obs.iter().map(|&y| y as usize).zip(rew.iter().copied());
-                self.add(i / episodes, c, n_obs, steps, gamma, v);
+                self.add(i / episodes, (i % episodes) as u64, c, n_obs, steps, gamma, v);
             }
             at += 4 + 2 * n;
         }
@@ -199,16 +195,69 @@ impl StepCredit {
                 sums[at] += self.sums[c * self.rows + r];
             }
         }
-        (0..self.rows)
-            .map(|r| {
-                let mean = |a: usize| sums[r * n_actions + a] / visits[r * n_actions + a] as f64;
-                let visited = (0..n_actions).filter(|&a| visits[r * n_actions + a] > 0);
-                visited
-                    .fold(None, |b: Option<usize>, a| if b.is_none_or(|b| mean(a) > mean(b)) { Some(a) } else { b })
-                    .map(|a| a as u32)
-            })
-            .collect()
+        best_means(&visits, &sums, n_actions)
     }
+
+    /// [`StepCredit::best`] over the decisions the steps took: for each decision row of `c`, the
+    /// decision of highest mean credit over `episodes` of `traces` (episodes of `c`'s machine,
+    /// whose decisions an explorer's draws changed, [`crate::policy::controller::Explore`]).
+    pub fn best_taken(
+        c: &Controller,
+        traces: &Traces,
+        episodes: impl Iterator<Item = std::ops::Range<usize>>,
+        n_obs: usize,
+        n_actions: usize,
+    ) -> Vec<Option<u32>> {
+        let rows = StepCredit::rows_of(c);
+        let mut visits = vec![0u64; rows * n_actions];
+        let mut sums = vec![0.0; rows * n_actions];
+        for episode in episodes {
+            let steps = episode.clone().map(|t| (traces.obs[t] as usize, traces.rew[t]));
+            let value = steps.clone().rev().fold(0.0, |ahead, (_, r)| r + traces.gamma * ahead);
+            to_come(c, n_obs, steps, traces.gamma, value, |i, row, credit| {
+                let at = row * n_actions + traces.dec[episode.start + i] as usize;
+                visits[at] += 1;
+                sums[at] += credit;
+            });
+        }
+        best_means(&visits, &sums, n_actions)
+    }
+}
+
+/// Runs `c`'s machine through an episode of value `value` (its steps' (observation, reward), the
+/// rewards discounted by `gamma`) and calls `credit(step, row, value still to come)` at each step.
+fn to_come(
+    c: &Controller,
+    n_obs: usize,
+    steps: impl Iterator<Item = (usize, f64)>,
+    gamma: f64,
+    value: f64,
+    mut credit: impl FnMut(usize, usize, f64),
+) {
+    let (mut node, mut before, mut factor) = (0u32, 0.0, 1.0);
+    for (i, (y, r)) in steps.enumerate() {
+        let from = node as usize;
+        c.step(&mut node, y, n_obs);
+        // A Mealy machine decides in the node it left, a Moore machine in the one it enters.
+        let row = if c.is_mealy() { from * n_obs + y } else { node as usize };
+        credit(i, row, value - before);
+        before += factor * r;
+        factor *= gamma;
+    }
+}
+
+/// For each row of `visits` and `sums` (`n_actions` columns), the decision of highest mean, the
+/// lower of equals; `None` where none was visited.
+fn best_means(visits: &[u64], sums: &[f64], n_actions: usize) -> Vec<Option<u32>> {
+    (0..visits.len() / n_actions.max(1))
+        .map(|r| {
+            let mean = |a: usize| sums[r * n_actions + a] / visits[r * n_actions + a] as f64;
+            let visited = (0..n_actions).filter(|&a| visits[r * n_actions + a] > 0);
+            visited
+                .fold(None, |b: Option<usize>, a| if b.is_none_or(|b| mean(a) > mean(b)) { Some(a) } else { b })
+                .map(|a| a as u32)
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -223,14 +272,14 @@ mod tests {
         let mut credit = StepCredit::new(2, StepCredit::rows_of(&c));
         let rewards = [1.0, 2.0, 4.0];
         let value = 1.0 + 0.5 * 2.0 + 0.25 * 4.0;
-        credit.add(1, &c, 2, [1, 0, 1].into_iter().zip(rewards), 0.5, value);
+        credit.add(1, 0, &c, 2, [1, 0, 1].into_iter().zip(rewards), 0.5, value);
         assert_eq!(credit.visits, vec![0, 0, 0, 0, 0, 2, 1, 0]);
         // Row 1: the whole value (3), then what the last step still pays (3 − 1 − 1); row 2: 3 − 1.
         assert_eq!(credit.sums, vec![0.0, 0.0, 0.0, 0.0, 0.0, 4.0, 2.0, 0.0]);
         // A Moore machine's row is the node it moves to: 0 → 1 → 0 on these observations.
         let moore = Controller::moore(vec![0, 1], vec![1, 0, 0, 1]);
         let mut credit = StepCredit::new(1, StepCredit::rows_of(&moore));
-        credit.add(0, &moore, 2, [(0, 1.0), (0, 1.0)].into_iter(), 1.0, 2.0);
+        credit.add(0, 0, &moore, 2, [(0, 1.0), (0, 1.0)].into_iter(), 1.0, 2.0);
         assert_eq!((credit.visits, credit.sums), (vec![1, 1], vec![1.0, 2.0]));
     }
 
@@ -256,7 +305,9 @@ mod tests {
     fn kept_steps_travel_as_numbers_and_come_back_as_run_here() {
         // Two controllers of two episodes, traced here.
         let echo = Controller::mealy(vec![0, 1, 1, 0], vec![0, 1, 0, 1], 2);
-        let hold = Controller::moore(vec![1], vec![0, 0]);
+        // The second an explorer: its draws are taken again where the numbers are read.
+        let explore = Some(crate::policy::controller::Explore { rate: 0.5, actions: 2, key: 7 });
+        let hold = Controller { explore, ..Controller::moore(vec![1], vec![0, 0]) };
         let controllers = [echo.clone(), hold.clone()];
         let episodes: [(usize, Vec<(usize, f64)>); 4] =
             [(0, vec![(1, 1.0), (0, 2.0)]), (0, vec![(0, -1.0)]), (1, vec![]), (1, vec![(1, 0.5), (1, 0.5), (0, 4.0)])];
@@ -264,7 +315,7 @@ mod tests {
         let mut values = [0.0; 4];
         for (i, (c, steps)) in episodes.iter().enumerate() {
             values[i] = steps.iter().map(|s| s.1).sum::<f64>() + i as f64;
-            here.add(*c, &controllers[*c], 2, steps.iter().copied(), 0.9, values[i]);
+            here.add(*c, (i % 2) as u64, &controllers[*c], 2, steps.iter().copied(), 0.9, values[i]);
         }
         let numbers = here.to_steps(true, &values);
         assert_eq!(numbers.len(), 4 * 4 + 2 * 6);

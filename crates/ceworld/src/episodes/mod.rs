@@ -322,7 +322,12 @@ impl<W: World> Episodes for W {
             .with_min_len(8)
             .enumerate()
             .map(|(i, value)| {
-                let (v, steps) = run_controller(self, &controllers[i / episodes], &mut streams.episode(i % episodes));
+                let (v, steps) = run_controller(
+                    self,
+                    &controllers[i / episodes],
+                    (i % episodes) as u64,
+                    &mut streams.episode(i % episodes),
+                );
                 *value = v;
                 steps as u64
             })
@@ -347,13 +352,24 @@ impl<W: World> Episodes for W {
         let runs: Vec<(f64, Vec<(usize, f64)>)> = (0..values.len())
             .into_par_iter()
             .with_min_len(8)
-            .map(|i| run_controller_steps(self, &controllers[i / episodes], &mut streams.episode(i % episodes), gamma))
+            .map(|i| {
+                let (c, k) = (&controllers[i / episodes], i % episodes);
+                run_controller_steps(self, c, k as u64, &mut streams.episode(k), gamma)
+            })
             .collect();
         let (n_obs, mut steps) = (self.n_observations(), 0);
         for (i, (value, kept)) in runs.into_iter().enumerate() {
             values[i] = value;
             steps += kept.len() as u64;
-            credit.add(i / episodes, &controllers[i / episodes], n_obs, kept.into_iter(), gamma, value);
+            credit.add(
+                i / episodes,
+                (i % episodes) as u64,
+                &controllers[i / episodes],
+                n_obs,
+                kept.into_iter(),
+                gamma,
+                value,
+            );
         }
         Ok((steps, true))
     }

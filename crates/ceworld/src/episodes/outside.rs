@@ -21,7 +21,7 @@ use crate::episodes::run::Rollout;
 use crate::episodes::{Batch, Episodes, Shape, Streams};
 use crate::error::{Error, Result};
 use crate::policy::Hhmm;
-use crate::policy::controller::Controller;
+use crate::policy::controller::{Controller, Walk};
 use crate::rng::{EngineRng, Purpose, stream_key};
 
 /// The `"name"` of a world outside the engine in policy files and checkpoints: the engine
@@ -361,8 +361,8 @@ struct ControllerDeciders<'a> {
     streams: Streams,
 }
 
-impl Deciders for ControllerDeciders<'_> {
-    type Slot = (usize, u32);
+impl<'a> Deciders for ControllerDeciders<'a> {
+    type Slot = Walk<'a>;
 
     fn width(&self) -> usize {
         3
@@ -377,15 +377,14 @@ impl Deciders for ControllerDeciders<'_> {
     }
 
     fn slot(&self, k: usize) -> Self::Slot {
-        (k / self.episodes, 0)
+        self.controllers[k / self.episodes].walk(self.n_obs, (k % self.episodes) as u64)
     }
 
-    fn decide(&self, (c, node): &mut Self::Slot, y: usize, _first: bool, row: &mut [u16]) {
-        let controller = &self.controllers[*c];
-        let d = controller.step(node, y, self.n_obs);
+    fn decide(&self, walk: &mut Self::Slot, y: usize, _first: bool, row: &mut [u16]) {
+        let (d, _) = walk.step(y);
         row[0] = y as u16;
         row[1] = d as u16;
-        row[2] = *node as u16;
+        row[2] = walk.node() as u16;
     }
 }
 
@@ -527,7 +526,15 @@ impl<B: BatchWorld> Lockstep<B> {
                         rewards: &step_rewards[i * horizon..i * horizon + steps],
                     };
                     let steps = episode.observations().zip(episode.rewards.iter().copied());
-                    credit.add(c, &controllers[c], n_obs, steps, gamma, values[start + i]);
+                    credit.add(
+                        c,
+                        ((start + i) % episodes) as u64,
+                        &controllers[c],
+                        n_obs,
+                        steps,
+                        gamma,
+                        values[start + i],
+                    );
                 }
             }
             start = end;

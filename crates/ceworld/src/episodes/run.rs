@@ -109,11 +109,12 @@ where
     world.reward(&state)
 }
 
-/// Runs one episode of `world` under the deterministic `controller` and returns `V` and the
-/// number of steps run: the randomness of `rng` is the world's alone.
+/// Runs episode `episode` of `controller` in `world` and returns `V` and the number of steps
+/// run: the randomness of `rng` is the world's alone (an explorer's draws are its own,
+/// [`Controller::walk`]).
 #[inline]
-pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut EngineRng) -> (f64, usize) {
-    run_controller_with(world, controller, rng, |_, _| {})
+pub fn run_controller<W: World>(world: &W, controller: &Controller, episode: u64, rng: &mut EngineRng) -> (f64, usize) {
+    run_controller_with(world, controller, episode, rng, |_, _| {})
 }
 
 /// [`run_controller`], calling `seen(y, state)` after each step with its observation and the
@@ -122,16 +123,16 @@ pub fn run_controller<W: World>(world: &W, controller: &Controller, rng: &mut En
 pub fn run_controller_with<W: World>(
     world: &W,
     controller: &Controller,
+    episode: u64,
     rng: &mut EngineRng,
     mut seen: impl FnMut(usize, &W::State),
 ) -> (f64, usize) {
-    let n_obs = world.n_observations();
+    let mut walk = controller.walk(world.n_observations(), episode);
     let mut state = world.reset(rng);
-    let mut node = 0u32;
     let mut steps = 0;
     for t in 0..world.horizon() {
         let y = world.observe(&state, rng);
-        let d = controller.step(&mut node, y, n_obs);
+        let (d, _) = walk.step(y);
         world.step(&mut state, d as usize, rng);
         seen(y, &state);
         steps = t + 1;
@@ -148,11 +149,12 @@ pub fn run_controller_with<W: World>(
 pub fn run_controller_steps<W: World>(
     world: &W,
     controller: &Controller,
+    episode: u64,
     rng: &mut EngineRng,
     gamma: f64,
 ) -> (f64, Vec<(usize, f64)>) {
     let (mut kept, mut sum, mut factor) = (Vec::new(), 0.0, 1.0);
-    let (value, _) = run_controller_with(world, controller, rng, |y, state| {
+    let (value, _) = run_controller_with(world, controller, episode, rng, |y, state| {
         let now = world.reward(state);
         kept.push((y, if factor > 0.0 { (now - sum) / factor } else { 0.0 }));
         (sum, factor) = (now, factor * gamma);
@@ -212,10 +214,10 @@ mod tests {
         // Node 0 forever, deciding 1: the odd steps pay.
         let stuck = Controller::moore(vec![1, 0, 0], vec![0; 6]);
         let whole = Parity { stop: None };
-        assert_eq!(run_controller(&whole, &echo, rng), (4.0 + 2.0, 4));
-        assert_eq!(run_controller(&whole, &stuck, rng), (2.0 + 2.0, 4));
+        assert_eq!(run_controller(&whole, &echo, 0, rng), (4.0 + 2.0, 4));
+        assert_eq!(run_controller(&whole, &stuck, 0, rng), (2.0 + 2.0, 4));
         let short = Parity { stop: Some(3) };
-        assert_eq!(run_controller(&short, &echo, rng), (3.0 + 1.5, 3));
+        assert_eq!(run_controller(&short, &echo, 0, rng), (3.0 + 1.5, 3));
         // The same as the controller's HHMM, step by step, and as a rollout.
         let rollout = crate::evaluate::rollout(&short, &echo.to_hhmm(2, 2).unwrap(), 0, 0).unwrap();
         assert_eq!((rollout.len(), rollout.is_empty(), rollout.reward), (3, false, 4.5));
@@ -232,14 +234,14 @@ mod tests {
         // Node 0 forever, deciding 1: the steps add 0.5, 1.5, 0.5, 1.5 (the odd ones pay).
         let stuck = Controller::moore(vec![1], vec![0; 2]);
         let whole = Parity { stop: None };
-        let kept = |gamma: f64| run_controller_steps(&whole, &stuck, &mut rng.clone(), gamma);
+        let kept = |gamma: f64| run_controller_steps(&whole, &stuck, 0, &mut rng.clone(), gamma);
         assert_eq!(kept(1.0), (4.0, vec![(0, 0.5), (1, 1.5), (0, 0.5), (1, 1.5)]));
         // Read as a sum discounted by 1/2: step t added r_t / 2^t.
         assert_eq!(kept(0.5), (4.0, vec![(0, 0.5), (1, 3.0), (0, 2.0), (1, 12.0)]));
         // Discounted to nothing after the first step: what the later steps added is not theirs.
         assert_eq!(kept(0.0), (4.0, vec![(0, 0.5), (1, 0.0), (0, 0.0), (1, 0.0)]));
         // An episode that stops keeps the steps it ran.
-        let (value, steps) = run_controller_steps(&Parity { stop: Some(3) }, &stuck, rng, 1.0);
+        let (value, steps) = run_controller_steps(&Parity { stop: Some(3) }, &stuck, 0, rng, 1.0);
         assert_eq!((value, steps.len()), (2.5, 3));
     }
 }

@@ -16,10 +16,13 @@
 //! `h0[(d, q')] = d`, `h1[y][q] = (on[q·Y + y], next[q·Y + y])`, `start = 0`, `step[(d, q')] = q'`,
 //! tables that grow with the pairs, where the Moore machine of its (node, observation) pairs
 //! ([`Controller::to_moore`], which the exact values use) would square nodes × observations.
-//! A controller draws no randomness of its own.
+//! A controller draws no randomness of its own, except an explorer's ([`Explore`], model §10):
+//! its decisions drawn again at some steps, by a pure function of the episode and the step, so
+//! that whoever reads an episode's observations takes its decisions again.
 
 use crate::error::Result;
 use crate::policy::{Hhmm, Layout};
+use crate::rng::mix64;
 
 /// A deterministic controller: `act[q]` (Moore) or `on[q·Y + y]` (Mealy), and `next[q·Y + y]`.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -32,17 +35,104 @@ pub struct Controller {
     /// moves; empty in a Moore machine.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub on: Vec<u32>,
+    /// An explorer's draws ([`Explore`]); `None` for a deterministic controller. They are not in
+    /// [`Controller::to_hhmm`]'s policy: only a learner's explorers have them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explore: Option<Explore>,
+}
+
+/// The draws of an explorer (model §10): at step `t` of its episode `k` the decision is drawn
+/// again, uniformly among `actions`, with probability `rate`, by a pure function of (`key`, `k`,
+/// `t`), so that the decisions and their probabilities are known wherever the episode's
+/// observations are.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Explore {
+    /// The probability that a step's decision is drawn again.
+    pub rate: f64,
+    /// The decisions it is drawn among.
+    pub actions: u32,
+    /// The explorer's key.
+    pub key: u64,
+}
+
+impl PartialEq for Explore {
+    fn eq(&self, other: &Explore) -> bool {
+        (self.rate.to_bits(), self.actions, self.key) == (other.rate.to_bits(), other.actions, other.key)
+    }
+}
+
+impl Eq for Explore {}
+
+impl std::hash::Hash for Explore {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        (self.rate.to_bits(), self.actions, self.key).hash(state);
+    }
+}
+
+impl Explore {
+    /// The decision of step `t` of episode `episode` whose machine decides `planned`.
+    #[inline]
+    pub fn decide(&self, planned: u32, episode: u64, t: u64) -> u32 {
+        let h = mix64(self.key ^ mix64(episode.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ t));
+        let u = (h >> 11) as f64 / (1u64 << 53) as f64;
+        if u < self.rate { (mix64(h) % u64::from(self.actions.max(1))) as u32 } else { planned }
+    }
+
+    /// The probability of decision `d` where the machine decides `planned`.
+    #[inline]
+    pub fn probability(&self, planned: u32, d: u32) -> f64 {
+        let drawn = self.rate / f64::from(self.actions.max(1));
+        if d == planned { 1.0 - self.rate + drawn } else { drawn }
+    }
+}
+
+/// A controller run through one episode ([`Controller::walk`]): its node, and its draws where
+/// it is an explorer.
+#[derive(Clone, Debug)]
+pub struct Walk<'c> {
+    controller: &'c Controller,
+    n_obs: usize,
+    node: u32,
+    episode: u64,
+    t: u64,
+}
+
+impl Walk<'_> {
+    /// One step on observation `y`: the decision and its probability (1 but for an explorer).
+    #[inline]
+    pub fn step(&mut self, y: usize) -> (u32, f64) {
+        let planned = self.controller.step(&mut self.node, y, self.n_obs);
+        let t = self.t;
+        self.t += 1;
+        match &self.controller.explore {
+            None => (planned, 1.0),
+            Some(e) => {
+                let d = e.decide(planned, self.episode, t);
+                (d, e.probability(planned, d))
+            }
+        }
+    }
+
+    /// The node the controller is in.
+    pub fn node(&self) -> u32 {
+        self.node
+    }
 }
 
 impl Controller {
     /// A Moore machine.
     pub fn moore(act: Vec<u32>, next: Vec<u32>) -> Controller {
-        Controller { act, next, on: Vec::new() }
+        Controller { act, next, on: Vec::new(), explore: None }
     }
 
     /// A Mealy machine of `next.len() / Y` nodes.
     pub fn mealy(on: Vec<u32>, next: Vec<u32>, n_obs: usize) -> Controller {
-        Controller { act: vec![0; next.len() / n_obs.max(1)], next, on }
+        Controller { act: vec![0; next.len() / n_obs.max(1)], next, on, explore: None }
+    }
+
+    /// Episode `episode` of this controller on a world of `n_obs` observations, from node 0.
+    pub fn walk(&self, n_obs: usize, episode: u64) -> Walk<'_> {
+        Walk { controller: self, n_obs, node: 0, episode, t: 0 }
     }
 
     /// Number of nodes.
@@ -61,7 +151,8 @@ impl Controller {
         if self.is_mealy() { &self.on } else { &self.act }
     }
 
-    /// One step on observation `y` (of `n_obs`): moves `node` on and returns the decision.
+    /// One step on observation `y` (of `n_obs`): moves `node` on and returns the machine's
+    /// decision (an explorer's draws are [`Walk::step`]'s).
     #[inline]
     pub fn step(&self, node: &mut u32, y: usize, n_obs: usize) -> u32 {
         let i = *node as usize * n_obs + y;

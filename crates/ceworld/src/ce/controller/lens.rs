@@ -275,7 +275,7 @@ mod tests {
         let echo = Controller::moore(vec![2, 0, 1], vec![1, 2, 1, 2, 1, 2]);
         for sequence in 0..8usize {
             let obs = [sequence >> 2 & 1, sequence >> 1 & 1, sequence & 1];
-            traces.add(&echo, 2, obs.into_iter().map(|y| (y, 0.0)));
+            traces.add(&echo, 2, 0, obs.into_iter().map(|y| (y, 0.0)));
         }
         traces
     }
@@ -353,7 +353,7 @@ mod tests {
         let mut own = Traces::default();
         for sequence in 0..36usize {
             let obs = [sequence % 6, sequence / 6, (sequence * 5 + 1) % 6];
-            own.add(machine, 6, obs.into_iter().map(|y| (y, 0.0)));
+            own.add(machine, 6, 0, obs.into_iter().map(|y| (y, 0.0)));
         }
         own
     }
@@ -380,7 +380,7 @@ mod tests {
             let mut own = Traces::default();
             for sequence in 0..8usize {
                 let obs = [sequence >> 2 & 1, sequence >> 1 & 1, sequence & 1];
-                own.add(&machine, 2, obs.into_iter().map(|y| (y, 0.0)));
+                own.add(&machine, 2, 0, obs.into_iter().map(|y| (y, 0.0)));
             }
             let states = l.replay(SIZES, &own);
             for t in 0..own.steps() {

@@ -1,7 +1,8 @@
 //! The empirical model of a candidate memory over every step kept (model §10, memory from every
 //! step): the kept episodes replayed through the memory give its agent state at each step (what
-//! the memory holds when the step decides); counted, they give for each (state, decision) its
-//! visits, its mean reward and the law of the next agent state. Value iteration on that model
+//! the memory holds when the step decides); counted, each step weighted by the inverse of its
+//! decision's probability ([`Traces::weight`]), they give for each (state, decision) its visits,
+//! its mean reward and the law of the next agent state. Value iteration on that model
 //! plans the memory's decisions and values it, so that every step taken serves every memory
 //! considered, not only the controller that took it.
 //!
@@ -21,11 +22,13 @@ pub struct AgentModel {
     pub actions: usize,
     /// Steps that decided `d` in state `s`, at `s·A + d`.
     pub visits: Vec<u32>,
-    /// Their summed reward.
+    /// Their summed weight ([`Traces::weight`]: 1 a step but for an explorer's draws).
+    pub weight: Vec<f64>,
+    /// Their summed reward, each weighted.
     pub reward: Vec<f64>,
-    /// The next states met after pair `p`: `next[from[p]..from[p + 1]]`, each `(state, count)`,
+    /// The next states met after pair `p`: `next[from[p]..from[p + 1]]`, each `(state, weight)`,
     /// by state (an episode's last step has none).
-    pub next: Vec<(u32, u32)>,
+    pub next: Vec<(u32, f64)>,
     /// Where each pair's next states begin in `next` (`states·A + 1` entries).
     pub from: Vec<u32>,
     /// Episodes whose first step decided in state `s`.
@@ -73,6 +76,7 @@ impl AgentModel {
             states,
             actions,
             visits: vec![0; pairs],
+            weight: vec![0.0; pairs],
             reward: vec![0.0; pairs],
             next: Vec::new(),
             from: vec![0; pairs + 1],
@@ -93,9 +97,10 @@ impl AgentModel {
             m.longest = m.longest.max(episode.len());
             m.starts[state[episode.start] as usize] += 1;
             for t in episode.clone() {
-                let (p, r) = (pair(t), traces.rew[t]);
+                let (p, r, w) = (pair(t), traces.rew[t], traces.weight(t));
                 m.visits[p] += 1;
-                m.reward[p] += r;
+                m.weight[p] += w;
+                m.reward[p] += w * r;
                 (low, high) = (low.min(r), high.max(r));
                 if t + 1 < episode.end {
                     m.from[p + 1] += 1;
@@ -127,23 +132,23 @@ impl AgentModel {
             m.from[p + 1] += m.from[p];
         }
         let mut fill: Vec<u32> = m.from[..pairs].to_vec();
-        let mut to = vec![0u32; m.from[pairs] as usize];
+        let mut to = vec![(0u32, 0.0); m.from[pairs] as usize];
         for episode in episodes() {
             for t in episode.start..episode.end.saturating_sub(1) {
                 let p = pair(t);
-                to[fill[p] as usize] = state[t + 1];
+                to[fill[p] as usize] = (state[t + 1], traces.weight(t));
                 fill[p] += 1;
             }
         }
         let mut from = vec![0u32; pairs + 1];
         for p in 0..pairs {
             let run = &mut to[m.from[p] as usize..m.from[p + 1] as usize];
-            run.sort_unstable();
-            for &s in run.iter() {
+            run.sort_unstable_by_key(|&(s, _)| s);
+            for &(s, w) in run.iter() {
                 let ours = m.next.len() > from[p] as usize;
                 match m.next.last_mut() {
-                    Some((last, count)) if ours && *last == s => *count += 1,
-                    _ => m.next.push((s, 1)),
+                    Some((last, weight)) if ours && *last == s => *weight += w,
+                    _ => m.next.push((s, w)),
                 }
             }
             from[p + 1] = m.next.len() as u32;
@@ -203,7 +208,7 @@ impl AgentModel {
 
     /// The model's value of the episodes' starts when state `s` decides `act[s]` (`horizon`
     /// backups discounted by `gamma`, no doubt); where that pair was never seen, what the steps
-    /// did there: the state's pairs seen, weighted by their visits.
+    /// did there: the state's pairs seen, weighted by their steps' weights.
     pub fn evaluate(&self, act: &[u32], gamma: f64, horizon: usize) -> f64 {
         let (n, a) = (self.states, self.actions);
         let (mut value, mut fresh) = (vec![0.0; n], vec![0.0; n]);
@@ -214,10 +219,10 @@ impl AgentModel {
                     self.q(p, gamma, &value)
                 } else {
                     let seen = (s * a..(s + 1) * a).filter(|&p| self.visits[p] > 0);
-                    let (sum, visits) = seen.fold((0.0, 0u32), |(sum, visits), p| {
-                        (sum + self.q(p, gamma, &value) * f64::from(self.visits[p]), visits + self.visits[p])
+                    let (sum, weight) = seen.fold((0.0, 0.0), |(sum, weight), p| {
+                        (sum + self.q(p, gamma, &value) * self.weight[p], weight + self.weight[p])
                     });
-                    if visits == 0 { 0.0 } else { sum / f64::from(visits) }
+                    if weight > 0.0 { sum / weight } else { 0.0 }
                 };
             }
             std::mem::swap(&mut value, &mut fresh);
@@ -229,9 +234,9 @@ impl AgentModel {
     fn q(&self, p: usize, gamma: f64, value: &[f64]) -> f64 {
         let ahead: f64 = self.next[self.from[p] as usize..self.from[p + 1] as usize]
             .iter()
-            .map(|&(to, count)| f64::from(count) * value[to as usize])
+            .map(|&(to, weight)| weight * value[to as usize])
             .sum();
-        (self.reward[p] + gamma * ahead) / f64::from(self.visits[p])
+        (self.reward[p] + gamma * ahead) / self.weight[p]
     }
 
     /// The mean of `value` over the episodes' starts.
@@ -257,7 +262,7 @@ mod tests {
             for sequence in 0..8usize {
                 let obs = [sequence >> 2 & 1, sequence >> 1 & 1, sequence & 1];
                 let reward = |t: usize| if t > 0 && obs[t - 1] == d as usize { 1.0 } else { 0.0 };
-                traces.add(&constant, 2, (0..3).map(|t| (obs[t], reward(t))));
+                traces.add(&constant, 2, 0, (0..3).map(|t| (obs[t], reward(t))));
             }
         }
         traces
@@ -274,7 +279,8 @@ mod tests {
         // Steps 2 and 3 pay where the observation before is the decision: half the sequences each.
         assert_eq!(m.reward, vec![8.0, 8.0]);
         // Eight episodes of three steps per decision: two steps each lead on, to the one state.
-        assert_eq!(m.next, vec![(0, 16), (0, 16)]);
+        assert_eq!(m.next, vec![(0, 16.0), (0, 16.0)]);
+        assert_eq!(m.weight, vec![24.0, 24.0]);
         assert_eq!(m.from, vec![0, 1, 2]);
         // A window of two: the next states of each pair by state, each counted once per step.
         let window = [0, 1, 2, 3, 0, 1, 2, 3];
@@ -282,9 +288,33 @@ mod tests {
         let of = |p: usize| w.next[w.from[p] as usize..w.from[p + 1] as usize].to_vec();
         // State 1 holds (0, 1) (or 1 first): after it, (1, 0) or (1, 1), each as often; decided 0
         // at the first step of four sequences and the second of two.
-        assert_eq!(of(2), vec![(2, 3), (3, 3)]);
+        assert_eq!(of(2), vec![(2, 3.0), (3, 3.0)]);
         assert_eq!(w.from[8] as usize, w.next.len());
-        assert_eq!(w.next.iter().map(|&(_, c)| c).sum::<u32>(), 32);
+        assert_eq!(w.next.iter().map(|&(_, c)| c).sum::<f64>(), 32.0);
+    }
+
+    #[test]
+    fn each_step_counts_with_the_inverse_of_its_decision_s_probability() {
+        // One state; decision 0 taken with probability 1/2 (reward 1) then 1 (reward 0) in the
+        // first episode, decision 1 with probability 1/4 (reward 2) alone in the second.
+        let traces = Traces {
+            obs: vec![0, 0, 0],
+            dec: vec![0, 0, 1],
+            rew: vec![1.0, 0.0, 2.0],
+            prob: vec![0.5, 1.0, 0.25],
+            ends: vec![2, 3],
+            gamma: 1.0,
+        };
+        let m = AgentModel::fit(&replay(&[0], 1, &traces), 1, 2, &traces, None);
+        assert_eq!(
+            (m.visits.clone(), m.weight.clone(), m.reward.clone()),
+            (vec![2, 1], vec![3.0, 4.0], vec![2.0, 8.0])
+        );
+        // The first step led on with its weight; the last steps of episodes lead nowhere.
+        assert_eq!(m.next, vec![(0, 2.0)]);
+        // One step to go: decision 0 is worth 2/3, decision 1 is worth 8/4.
+        assert_eq!(m.evaluate(&[0], 1.0, 1), 2.0 / 3.0);
+        assert_eq!(m.evaluate(&[1], 1.0, 1), 2.0);
     }
 
     #[test]
@@ -316,6 +346,7 @@ mod tests {
             obs: vec![0, 1, 1, 0, 1, 0],
             dec: vec![1, 0, 0, 0, 0, 1],
             rew: vec![0.0, 3.0, 3.0, 1.0, 3.0, 0.0],
+            prob: vec![1.0; 6],
             ends: vec![2, 4, 6],
             gamma: 1.0,
         };

@@ -4,20 +4,21 @@
 //!
 //! Each iteration (1) explores: `samples` controllers run `episodes` episodes each, keeping their
 //! steps (the last `memory_steps`: [`Traces`]); they are drawn from the laws mixed with `explore`
-//! of the uniform law, and a `greedy` share of them, once there is a best so far, is that best
-//! with `explore` of its decisions drawn again. (2) Searches memories on the model, with no step
-//! of the world: `rounds` rounds of the cross-entropy method (model §3) over the laws of a
-//! successor table, each drawing `memories` tables, replaying every kept step through each
+//! of the uniform law, and a `greedy` share of them, once there is a best so far, is that best with
+//! its decision drawn again with probability `explore` at each step ([`Explore`]: the model weights
+//! each step by the inverse of its decision's probability). (2) Searches memories on the model,
+//! with no step of the world: `rounds` rounds of the cross-entropy method (model §3) over the laws
+//! of a successor table, each drawing `memories` tables, replaying every kept step through each
 //! ([`AgentModel`]), planning its decisions on half the kept episodes and ranking it by the plan's
-//! value on the model of the other half, the best `rho`
-//! refitting the laws; and every lens of at most `lens_features` features ([`Lens`]: lags of the
-//! last `window` observations and decisions, the first observation) planned and valued the same way.
-//! (3) Confirms: the `confirm` best plans of each family, the explorer that did best on its own
-//! episodes, the best so far with each decision row credited by the greedy explorers' steps (model
-//! §8's credit within episodes) and the best so far are valued on the iteration's selection
-//! episodes, whose steps are kept as the explorers' are; the best of the others replaces the best
-//! so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run
-//! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
+//! value on the model of the other half, the best `rho` refitting the laws; and every lens of at
+//! most `lens_features` features ([`Lens`]: lags of the last `window` observations and decisions,
+//! the first observation) planned and valued the same way. (3) Confirms: the `confirm` best plans
+//! of each family, the explorer drawn from the laws that did best on its own episodes, the best so
+//! far with each decision row credited by the greedy explorers' steps (model §8's credit within
+//! episodes) and the best so far are valued on the iteration's selection episodes, whose steps are
+//! kept as the explorers' are; the best of the others replaces the best so far where it beats it on
+//! them, else they add to its value. A stepped optimiser (`ceworld run model-search`, `cehmm.run`):
+//! budgets, checkpoints, progress and backends come from the spine.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -36,7 +37,7 @@ use crate::episodes::{Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::policy::Hhmm;
-use crate::policy::controller::Controller;
+use crate::policy::controller::{Controller, Explore};
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
 
@@ -55,8 +56,8 @@ pub struct ModelSearchConfig {
     pub samples: usize,
     /// Episodes of each.
     pub episodes: usize,
-    /// Weight of the uniform law mixed into the laws the explorers are drawn from, and share of
-    /// the best's decisions drawn again in a greedy explorer.
+    /// Weight of the uniform law mixed into the laws the explorers are drawn from, and
+    /// probability that a greedy explorer draws its decision again at a step.
     pub explore: f64,
     /// Share of the explorers that are the best so far with some decisions drawn again.
     pub greedy: f64,
@@ -258,10 +259,11 @@ impl Stepped for ModelSearch {
         // have grown since the last iteration's laws were fitted on fewer steps.
         self.laws.inject(c.explore);
         let (explorers, explored, credited) = self.explore(world, c, iteration, &mut rng, spent)?;
-        // The explorer that did best on its own episodes and the credited best so far challenge
-        // the plans.
+        // The explorer drawn from the laws that did best on its own episodes and the credited best
+        // so far challenge the plans.
         let first_best = |b: usize, i: usize| if explored[i] > explored[b] { i } else { b };
-        let best_explorer = (!explored.is_empty()).then(|| explorers[(0..explored.len()).fold(0, first_best)].clone());
+        let drawn = explored.len().min(explorers.iter().take_while(|e| e.explore.is_none()).count());
+        let best_explorer = (drawn > 0).then(|| explorers[(0..drawn).fold(0, first_best)].clone());
         let challengers: Vec<Controller> = best_explorer.into_iter().chain(credited).collect();
         let shape = world.shape();
         let sizes = Sizes::of(shape, &world.description());
@@ -347,24 +349,24 @@ struct Plan {
     value: f64,
 }
 
-/// `c` with each of its decisions drawn again, uniformly among `actions`, with probability `rate`.
-fn perturb(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Controller {
-    let mut c = c.clone();
-    let decisions = if c.is_mealy() { &mut c.on } else { &mut c.act };
-    for d in decisions.iter_mut() {
-        if rng.random::<f64>() < rate {
-            *d = rng.random_range(0..actions as u32);
-        }
-    }
-    c
+/// `c` as an explorer: each decision drawn again, uniformly among `actions`, with probability
+/// `rate` at each step ([`Explore`]).
+fn explorer(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Controller {
+    let explore = Explore { rate, actions: actions as u32, key: rng.random() };
+    Controller { explore: Some(explore), ..c.clone() }
 }
 
-/// `c` with each decision row taking the best decision of `greedy`'s steps there
-/// ([`StepCredit::best`] of `credit`, the credit of the first of them, in `c`'s rows), where
-/// one was seen; `None` where none was.
-fn credited_best(c: &Controller, credit: &StepCredit, greedy: &[Controller], actions: usize) -> Option<Controller> {
-    let run = credit.visits.len().checked_div(credit.rows).unwrap_or(0);
-    let best = credit.best(greedy[..run].iter().map(Controller::decisions).enumerate(), actions);
+/// `c` with each decision row taking the best decision of the steps of `episodes` of `traces`
+/// there (episodes of `c` as an explorer, [`StepCredit::best_taken`]), where one was seen;
+/// `None` where none was.
+fn credited_best(
+    c: &Controller,
+    traces: &Traces,
+    episodes: impl Iterator<Item = std::ops::Range<usize>>,
+    n_obs: usize,
+    actions: usize,
+) -> Option<Controller> {
+    let best = StepCredit::best_taken(c, traces, episodes, n_obs, actions);
     if best.iter().all(Option::is_none) {
         return None;
     }
@@ -379,10 +381,12 @@ fn credited_best(c: &Controller, credit: &StepCredit, greedy: &[Controller], act
 impl ModelSearch {
     /// Runs the iteration's explorers, keeping their steps: the explorers, the mean values of
     /// those run (the budget may cut them) and the best so far credited by the greedy ones. They
-    /// are drawn from the laws, and a `greedy` share of them is the best so far with `explore` of
-    /// its decisions drawn again: each decision row of the best so far then takes the decision
-    /// whose steps in that row had the highest mean value still to come in the world (model §8's
-    /// credit within episodes, over the greedy explorers), which needs no model.
+    /// are drawn from the laws, and a `greedy` share of them is the best so far with each decision
+    /// drawn again with probability `explore` at each step (whose steps the model weights by the
+    /// inverse of their decisions' probabilities, model §10): each decision row of the best so
+    /// far then takes the decision whose steps in that row had the highest mean value still to
+    /// come in the world (model §8's credit within episodes, over the greedy explorers' steps),
+    /// which needs no model.
     fn explore(
         &mut self,
         world: &dyn Episodes,
@@ -395,16 +399,14 @@ impl ModelSearch {
         let mut explorers: Vec<Controller> = (0..c.samples - greedy).map(|_| self.laws.draw(rng)).collect();
         let a = world.shape().decisions;
         if let Some(best) = &self.best {
-            explorers.extend((0..greedy).map(|_| perturb(&best.controller, c.explore, a, rng)));
+            explorers.extend((0..greedy).map(|_| explorer(&best.controller, c.explore, a, rng)));
         }
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
         let group = super::group_size(world.batch(), c.episodes);
         let mut means = Vec::with_capacity(c.samples);
         let first_greedy = c.samples - greedy;
-        let held_rows = self.best.as_ref().map_or(0, |b| StepCredit::rows_of(&b.controller));
-        // The greedy explorers' credit, in the rows of the best so far (they share its shape).
-        let mut greedy_credit = StepCredit::new(0, held_rows);
-        for (k, chunk) in explorers.chunks(group).enumerate() {
+        let before = self.traces.ends.len();
+        for chunk in explorers.chunks(group) {
             if !means.is_empty() && spent() {
                 break;
             }
@@ -412,19 +414,18 @@ impl ModelSearch {
             // Explorers of two shapes may share a group: the rows of the largest (only the
             // steps are read).
             let rows = chunk.iter().map(StepCredit::rows_of).max().unwrap_or(0);
-            let mut credit = StepCredit::traced(chunk.len(), rows);
-            self.run_kept(world, chunk, streams, c.episodes, &mut values, &mut credit)?;
+            self.run_kept(world, chunk, streams, c.episodes, &mut values, &mut StepCredit::traced(chunk.len(), rows))?;
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
-            for i in (0..chunk.len()).filter(|&i| k * group + i >= first_greedy) {
-                greedy_credit.visits.extend_from_slice(&credit.visits[i * rows..i * rows + held_rows]);
-                greedy_credit.sums.extend_from_slice(&credit.sums[i * rows..i * rows + held_rows]);
-            }
         }
-        self.traces.keep_last(c.memory_steps);
+        // The greedy explorers' episodes, the last of those just kept.
+        let greedy_episodes = means.len().saturating_sub(first_greedy) * c.episodes;
+        let first = before + (means.len() * c.episodes - greedy_episodes);
+        let n_obs = world.shape().observations;
         let credited = self
             .best
             .as_ref()
-            .and_then(|b| credited_best(&b.controller, &greedy_credit, &explorers[first_greedy..], a));
+            .and_then(|b| credited_best(&b.controller, &self.traces, self.traces.episodes().skip(first), n_obs, a));
+        self.traces.keep_last(c.memory_steps);
         Ok((explorers, means, credited))
     }
 
@@ -559,30 +560,65 @@ mod tests {
 
     #[test]
     fn each_row_of_the_best_takes_the_decision_of_highest_mean_credit_where_one_was_seen() {
-        // A Mealy machine of one node and three observations (rows), three decisions; two greedy
-        // explorers decide (0, 0, 2) and (2, 1, 2).
+        // A Mealy machine of one node and three observations (rows), three decisions; episodes
+        // of one step each (the value still to come is the step's reward), decisions as drawn.
         let best = Controller::mealy(vec![0, 1, 2], vec![0, 0, 0], 3);
-        let greedy =
-            [Controller::mealy(vec![0, 0, 2], vec![0, 0, 0], 3), Controller::mealy(vec![2, 1, 2], vec![0, 0, 0], 3)];
         // Row 0: decision 0 means 1.0, decision 2 means 1.5; row 1: decisions 0 and 1 tie at
         // 2.0 (the lower kept); row 2: never met.
-        let credit = StepCredit {
-            rows: 3,
-            visits: vec![2, 1, 0, 2, 1, 0],
-            sums: vec![2.0, 2.0, 0.0, 3.0, 2.0, 0.0],
-            traces: None,
+        let traces = Traces {
+            obs: vec![0, 0, 0, 1, 1],
+            dec: vec![0, 0, 2, 0, 1],
+            rew: vec![1.0, 1.0, 1.5, 2.0, 2.0],
+            prob: vec![1.0; 5],
+            ends: vec![1, 2, 3, 4, 5],
+            gamma: 1.0,
         };
-        assert_eq!(credited_best(&best, &credit, &greedy, 3).unwrap().on, vec![2, 0, 2]);
-        // A Moore machine's rows are its nodes; an explorer the budget cut has no credit.
+        assert_eq!(credited_best(&best, &traces, traces.episodes(), 3, 3).unwrap().on, vec![2, 0, 2]);
+        // A Moore machine's rows are its nodes (node y after y): of the episodes given only.
         let moore = Controller::moore(vec![1, 1], vec![0, 1, 0, 1]);
-        let cut = [moore.clone(), Controller::moore(vec![0, 0], vec![0, 1, 0, 1])];
-        let credit = StepCredit { rows: 2, visits: vec![0, 1], sums: vec![0.0, 4.0], traces: None };
-        let credited = credited_best(&moore, &credit, &cut, 2).unwrap();
+        let traces = Traces {
+            obs: vec![0, 1, 1],
+            dec: vec![0, 0, 1],
+            rew: vec![5.0, 1.0, 3.0],
+            prob: vec![1.0; 3],
+            ends: vec![1, 2, 3],
+            gamma: 1.0,
+        };
+        let credited = credited_best(&moore, &traces, traces.episodes().skip(1), 2, 2).unwrap();
         assert_eq!((credited.act, credited.next), (vec![1, 1], moore.next.clone()));
-        let both = StepCredit { rows: 2, visits: vec![3, 0, 1, 0], sums: vec![3.0, 0.0, 0.5, 0.0], traces: None };
-        let two = [Controller::moore(vec![0, 1], vec![0, 1, 0, 1]), moore.clone()];
-        assert_eq!(credited_best(&moore, &both, &two, 2).unwrap().act, vec![0, 1]);
-        let never = StepCredit { rows: 2, visits: vec![0, 0], sums: vec![0.0, 0.0], traces: None };
-        assert_eq!(credited_best(&moore, &never, &cut, 2), None);
+        // Within an episode, a step is credited with what is still to come: node 1 then node 1,
+        // deciding 0 (3 + 1 to come) then 1 (1 to come).
+        let two = Traces { ends: vec![3], obs: vec![1, 1, 1], dec: vec![0, 0, 1], ..traces.clone() };
+        assert_eq!(credited_best(&moore, &two, two.episodes(), 2, 2).unwrap().act, vec![1, 0]);
+        assert_eq!(credited_best(&moore, &traces, traces.episodes().skip(3), 2, 2), None);
+    }
+
+    #[test]
+    fn an_explorer_s_draws_are_a_function_of_its_episode_and_step_at_the_rate_asked() {
+        let best = Controller::moore(vec![1], vec![0; 2]);
+        let e = explorer(&best, 0.3, 4, &mut stream(0, Purpose::Init, 0, 0));
+        let mut drawn = 0;
+        for episode in 0..200 {
+            let (mut walk, mut again) = (e.walk(2, episode), e.walk(2, episode));
+            for t in 0..50 {
+                let (d, p) = walk.step(t % 2);
+                assert_eq!(again.step(t % 2), (d, p), "episode {episode} step {t}");
+                drawn += usize::from(d != 1);
+                // Drawn again with probability 0.3, uniformly among 4: 0.3 / 4 each.
+                let expected = if d == 1 { 0.7 + 0.075 } else { 0.075 };
+                assert!((p - expected).abs() < 1e-12, "{p} for decision {d}");
+            }
+        }
+        // 10,000 steps, each off the plan with probability 0.3 · 3/4 = 0.225 (sd about 0.004).
+        let off = drawn as f64 / 10_000.0;
+        assert!((off - 0.225).abs() < 0.015, "{off}");
+        // Another episode draws otherwise.
+        let decisions = |k: u64| {
+            let mut walk = e.walk(2, k);
+            (0..50).map(|t| walk.step(t % 2).0).collect::<Vec<_>>()
+        };
+        assert_ne!(decisions(0), decisions(1));
+        // A walk of the best so far itself takes its plan at every step, with probability 1.
+        assert_eq!(best.walk(2, 3).step(0), (1, 1.0));
     }
 }
