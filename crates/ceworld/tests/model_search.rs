@@ -126,11 +126,16 @@ fn the_selection_episodes_serve_the_model_too() {
     let mut search = ModelSearch::start(&w, &c).unwrap();
     search.step(&w, &c, 0, &|| false).unwrap();
     // The explorers' episodes, then those of each distinct candidate on the selection episodes
-    // (three plans of each family at most, the best explorer; no best so far yet).
+    // (three plans of each family at most, the best explorer, the uniform policy; no best so far
+    // yet).
     let (explored, kept) = (c.samples * c.episodes, search.traces.episodes().count());
     let confirmed = (kept - explored) / c.select_episodes;
     assert_eq!((kept - explored) % c.select_episodes, 0, "{kept}");
-    assert!((2..=2 * c.confirm + 1).contains(&confirmed), "{confirmed}");
+    assert!((3..=2 * c.confirm + 2).contains(&confirmed), "{confirmed}");
+    // The uniform policy's steps are kept with their decisions' probability, 1 / decisions (the
+    // others are the deterministic controllers', 1: no greedy explorer before a best so far).
+    let uniform = search.traces.prob.iter().filter(|&&p| p == 1.0 / CARDS as f64).count();
+    assert_eq!(uniform, c.select_episodes * HORIZON);
     assert_eq!(search.traces.steps(), kept * HORIZON);
 }
 

@@ -35,8 +35,8 @@ pub struct Controller {
     /// moves; empty in a Moore machine.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub on: Vec<u32>,
-    /// An explorer's draws ([`Explore`]); `None` for a deterministic controller. They are not in
-    /// [`Controller::to_hhmm`]'s policy: only a learner's explorers have them.
+    /// An explorer's draws ([`Explore`]); `None` for a deterministic controller. Its policy
+    /// ([`Controller::to_hhmm`]) draws its decisions as they do, from the policy's own stream.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub explore: Option<Explore>,
 }
@@ -227,7 +227,7 @@ impl Controller {
                 }
             }
         }
-        Controller::moore(act, next)
+        Controller { explore: self.explore, ..Controller::moore(act, next) }
     }
 
     /// The two-level one-hot HHMM of this controller (module docs).
@@ -240,7 +240,7 @@ impl Controller {
         let mut probs = vec![0.0; layout.len];
         let t = &layout.tables;
         for (q, &a) in self.act.iter().enumerate() {
-            probs[t[0].offset + q * n_actions + a as usize] = 1.0;
+            self.decision_law(a, &mut probs[t[0].offset + q * n_actions..][..n_actions]);
         }
         for y in 0..n_obs {
             for u in 0..n {
@@ -252,6 +252,17 @@ impl Controller {
             probs[t[3].offset + p * n + p] = 1.0;
         }
         Hhmm::from_flat(layout, probs)
+    }
+
+    /// The law of the decision where the machine decides `planned`: certain, or an explorer's
+    /// ([`Explore::probability`]).
+    fn decision_law(&self, planned: u32, row: &mut [f64]) {
+        for (d, p) in row.iter_mut().enumerate() {
+            *p = match &self.explore {
+                None => f64::from(u8::from(d as u32 == planned)),
+                Some(e) => e.probability(planned, d as u32),
+            };
+        }
     }
 
     /// A Mealy machine's HHMM (module docs): the upper memory the node before the step (its
@@ -290,7 +301,7 @@ impl Controller {
         let mut probs = vec![0.0; layout.len];
         let t = &layout.tables;
         for (p, &(a, to)) in pairs.iter().enumerate() {
-            probs[t[0].offset + p * n_actions + a as usize] = 1.0;
+            self.decision_law(a, &mut probs[t[0].offset + p * n_actions..][..n_actions]);
             probs[t[3].offset + p * n + rank[to as usize] as usize] = 1.0;
         }
         for u in 0..n {
@@ -324,6 +335,22 @@ impl Hhmm {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_explorer_s_policy_draws_its_decisions_as_its_walks_do() {
+        // Two nodes deciding 0 then 1, each decision drawn again among three with probability 0.6.
+        let explore = Some(Explore { rate: 0.6, actions: 3, key: 1 });
+        let c = Controller { explore, ..Controller::moore(vec![0, 1], vec![1, 1, 0, 0]) };
+        let close = |policy: &Hhmm, expected: &[f64]| {
+            let h0 = &policy.probs[policy.layout().tables[0].offset..][..expected.len()];
+            assert!(h0.iter().zip(expected).all(|(p, e)| (p - e).abs() < 1e-12), "{h0:?}");
+        };
+        close(&c.to_hhmm(2, 3).unwrap(), &[0.6, 0.2, 0.2, 0.2, 0.6, 0.2]);
+        // A Mealy machine's pairs decide the same way; its Moore machine keeps the draws.
+        let mealy = Controller { explore, ..Controller::mealy(vec![0, 2], vec![0, 0], 2) };
+        close(&mealy.to_hhmm(2, 3).unwrap(), &[0.6, 0.2, 0.2, 0.2, 0.2, 0.6]);
+        assert_eq!(mealy.to_moore(2).explore, explore);
+    }
 
     #[test]
     fn a_mealy_machine_on_many_observations_has_tables_of_its_pairs() {

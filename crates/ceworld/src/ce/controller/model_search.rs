@@ -15,7 +15,7 @@
 //! the first observation) planned and valued the same way. (3) Confirms: the `confirm` best plans
 //! of each family, the explorer drawn from the laws that did best on its own episodes, the best so
 //! far with each decision row credited by the greedy explorers' steps (model §8's credit within
-//! episodes) and the best so far are valued on the iteration's selection episodes, whose steps are
+//! episodes), in the first iteration the uniform policy, and the best so far are valued on the iteration's selection episodes, whose steps are
 //! kept as the explorers' are; the best of the others replaces the best so far where it beats it on
 //! them, else they add to its value. A stepped optimiser (`ceworld run model-search`, `cehmm.run`):
 //! budgets, checkpoints, progress and backends come from the spine.
@@ -182,7 +182,8 @@ impl Stepped for ModelSearch {
 
     fn episodes(c: &ModelSearchConfig) -> usize {
         // The explorers; the plans of each family and the best so far on the selection episodes.
-        // The best explorer, the credited best so far, the best so far.
+        // The best explorer, the credited best so far (the uniform policy in the first
+        // iteration), the best so far.
         let families = if c.window > 0 { 2 } else { 1 };
         c.samples.saturating_mul(c.episodes) + (families * c.confirm + 3).saturating_mul(c.select_episodes)
     }
@@ -264,7 +265,13 @@ impl Stepped for ModelSearch {
         let first_best = |b: usize, i: usize| if explored[i] > explored[b] { i } else { b };
         let drawn = explored.len().min(explorers.iter().take_while(|e| e.explore.is_none()).count());
         let best_explorer = (drawn > 0).then(|| explorers[(0..drawn).fold(0, first_best)].clone());
-        let challengers: Vec<Controller> = best_explorer.into_iter().chain(credited).collect();
+        // In the first iteration, the uniform policy too (memoryless and drawn at each step: where
+        // every deterministic plan repeats a costly decision, it may beat them all).
+        let uniform = self.best.is_none().then(|| {
+            let one = Controller::moore(vec![0], vec![0; world.shape().observations]);
+            explorer(&one, 1.0, world.shape().decisions, &mut rng)
+        });
+        let challengers: Vec<Controller> = best_explorer.into_iter().chain(credited).chain(uniform).collect();
         let shape = world.shape();
         let sizes = Sizes::of(shape, &world.description());
         let (tables, elite) = self.search(sizes, c, &mut rng);
@@ -350,8 +357,9 @@ struct Plan {
 }
 
 /// `c` as an explorer: each decision drawn again, uniformly among `actions`, with probability
-/// `rate` at each step ([`Explore`]).
+/// `rate` at each step ([`Explore`]), on top of `c`'s own draws where it has some.
 fn explorer(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Controller {
+    let rate = c.explore.map_or(rate, |e| 1.0 - (1.0 - e.rate) * (1.0 - rate));
     let explore = Explore { rate, actions: actions as u32, key: rng.random() };
     Controller { explore: Some(explore), ..c.clone() }
 }
@@ -370,7 +378,7 @@ fn credited_best(
     if best.iter().all(Option::is_none) {
         return None;
     }
-    let mut c = c.clone();
+    let mut c = Controller { explore: None, ..c.clone() };
     let decisions = if c.is_mealy() { &mut c.on } else { &mut c.act };
     for (d, best) in decisions.iter_mut().zip(best) {
         *d = best.unwrap_or(*d);
