@@ -5,25 +5,26 @@
 //! Each iteration (1) explores: `samples` controllers run `episodes` episodes each, keeping their
 //! steps (the last `memory_steps`: [`Traces`]); they are drawn from the laws mixed with `explore`
 //! of the uniform law, and a `greedy` share of them, once there is a best so far, is that best with
-//! its decision drawn again with probability `explore` at each step ([`Explore`]: the model weights
-//! each step by the inverse of its decision's probability). (2) Searches memories on the model,
-//! with no step of the world: `rounds` rounds of the cross-entropy method (model §3) over the laws
-//! of a successor table, each drawing `memories` tables, replaying every kept step through each
-//! ([`AgentModel`]), planning its decisions on half the kept episodes and ranking it by the plan's
-//! value on the model of the other half, the best `rho` refitting the laws; and every lens of at
-//! most `lens_features` features ([`Lens`]: lags of the last `window` observations and decisions,
-//! the first observation) planned and valued the same way. (3) Confirms: the `confirm` best plans
-//! of each family, the explorer drawn from the laws that did best on its own episodes, the best so
-//! far with each decision row credited by the greedy explorers' steps (model §8's credit within
-//! episodes), in the first iteration the uniform policy, and the best so far are valued on the iteration's selection episodes, whose steps are
-//! kept as the explorers' are; the best of the others replaces the best so far where it beats it on
-//! them, else they add to its value. A stepped optimiser (`ceworld run model-search`, `cehmm.run`):
-//! budgets, checkpoints, progress and backends come from the spine.
+//! its decision drawn again with probability `explore` at each step
+//! ([`crate::policy::controller::Explore`]: the model weights each step by the inverse of its
+//! decision's probability). (2) Searches memories on the model, with no step of the world: `rounds`
+//! rounds of the cross-entropy method (model §3) over the laws of a successor table, each drawing
+//! `memories` tables, replaying every kept step through each ([`AgentModel`]), planning its
+//! decisions on half the kept episodes and ranking it by the plan's value on the model of the other
+//! half, the best `rho` refitting the laws; and every lens of at most `lens_features` features
+//! ([`Lens`]: lags of the last `window` observations and decisions, the first observation) planned
+//! and valued the same way. (3) Confirms: the `confirm` best plans of each family, the explorer
+//! drawn from the laws that did best on its own episodes, the best so far with each decision row
+//! credited by the greedy explorers' steps (model §8's credit within episodes), in the first
+//! iteration the uniform policy, and the best so far are valued on the iteration's selection
+//! episodes, whose steps are kept as the explorers' are; the best of the others replaces the best
+//! so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run
+//! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
+
+mod explorers;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-
-use rand::RngExt;
 
 use super::config::Template;
 use super::laws::Laws;
@@ -37,9 +38,10 @@ use crate::episodes::{Episodes, Streams};
 use crate::error::{Error, Result};
 use crate::evaluate::mean;
 use crate::policy::Hhmm;
-use crate::policy::controller::{Controller, Explore};
+use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
+use explorers::{credited_best, explorer};
 
 /// The settings of the search of memories on the model of every step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -356,36 +358,6 @@ struct Plan {
     value: f64,
 }
 
-/// `c` as an explorer: each decision drawn again, uniformly among `actions`, with probability
-/// `rate` at each step ([`Explore`]), on top of `c`'s own draws where it has some.
-fn explorer(c: &Controller, rate: f64, actions: usize, rng: &mut EngineRng) -> Controller {
-    let rate = c.explore.map_or(rate, |e| 1.0 - (1.0 - e.rate) * (1.0 - rate));
-    let explore = Explore { rate, actions: actions as u32, key: rng.random() };
-    Controller { explore: Some(explore), ..c.clone() }
-}
-
-/// `c` with each decision row taking the best decision of the steps of `episodes` of `traces`
-/// there (episodes of `c` as an explorer, [`StepCredit::best_taken`]), where one was seen;
-/// `None` where none was.
-fn credited_best(
-    c: &Controller,
-    traces: &Traces,
-    episodes: impl Iterator<Item = std::ops::Range<usize>>,
-    n_obs: usize,
-    actions: usize,
-) -> Option<Controller> {
-    let best = StepCredit::best_taken(c, traces, episodes, n_obs, actions);
-    if best.iter().all(Option::is_none) {
-        return None;
-    }
-    let mut c = Controller { explore: None, ..c.clone() };
-    let decisions = if c.is_mealy() { &mut c.on } else { &mut c.act };
-    for (d, best) in decisions.iter_mut().zip(best) {
-        *d = best.unwrap_or(*d);
-    }
-    Some(c)
-}
-
 impl ModelSearch {
     /// Runs the iteration's explorers, keeping their steps: the explorers, the mean values of
     /// those run (the budget may cut them) and the best so far credited by the greedy ones. They
@@ -559,74 +531,5 @@ impl ModelSearch {
             None => return Ok(false),
         }
         Ok(true)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn each_row_of_the_best_takes_the_decision_of_highest_mean_credit_where_one_was_seen() {
-        // A Mealy machine of one node and three observations (rows), three decisions; episodes
-        // of one step each (the value still to come is the step's reward), decisions as drawn.
-        let best = Controller::mealy(vec![0, 1, 2], vec![0, 0, 0], 3);
-        // Row 0: decision 0 means 1.0, decision 2 means 1.5; row 1: decisions 0 and 1 tie at
-        // 2.0 (the lower kept); row 2: never met.
-        let traces = Traces {
-            obs: vec![0, 0, 0, 1, 1],
-            dec: vec![0, 0, 2, 0, 1],
-            rew: vec![1.0, 1.0, 1.5, 2.0, 2.0],
-            prob: vec![1.0; 5],
-            ends: vec![1, 2, 3, 4, 5],
-            gamma: 1.0,
-        };
-        assert_eq!(credited_best(&best, &traces, traces.episodes(), 3, 3).unwrap().on, vec![2, 0, 2]);
-        // A Moore machine's rows are its nodes (node y after y): of the episodes given only.
-        let moore = Controller::moore(vec![1, 1], vec![0, 1, 0, 1]);
-        let traces = Traces {
-            obs: vec![0, 1, 1],
-            dec: vec![0, 0, 1],
-            rew: vec![5.0, 1.0, 3.0],
-            prob: vec![1.0; 3],
-            ends: vec![1, 2, 3],
-            gamma: 1.0,
-        };
-        let credited = credited_best(&moore, &traces, traces.episodes().skip(1), 2, 2).unwrap();
-        assert_eq!((credited.act, credited.next), (vec![1, 1], moore.next.clone()));
-        // Within an episode, a step is credited with what is still to come: node 1 then node 1,
-        // deciding 0 (3 + 1 to come) then 1 (1 to come).
-        let two = Traces { ends: vec![3], obs: vec![1, 1, 1], dec: vec![0, 0, 1], ..traces.clone() };
-        assert_eq!(credited_best(&moore, &two, two.episodes(), 2, 2).unwrap().act, vec![1, 0]);
-        assert_eq!(credited_best(&moore, &traces, traces.episodes().skip(3), 2, 2), None);
-    }
-
-    #[test]
-    fn an_explorer_s_draws_are_a_function_of_its_episode_and_step_at_the_rate_asked() {
-        let best = Controller::moore(vec![1], vec![0; 2]);
-        let e = explorer(&best, 0.3, 4, &mut stream(0, Purpose::Init, 0, 0));
-        let mut drawn = 0;
-        for episode in 0..200 {
-            let (mut walk, mut again) = (e.walk(2, episode), e.walk(2, episode));
-            for t in 0..50 {
-                let (d, p) = walk.step(t % 2);
-                assert_eq!(again.step(t % 2), (d, p), "episode {episode} step {t}");
-                drawn += usize::from(d != 1);
-                // Drawn again with probability 0.3, uniformly among 4: 0.3 / 4 each.
-                let expected = if d == 1 { 0.7 + 0.075 } else { 0.075 };
-                assert!((p - expected).abs() < 1e-12, "{p} for decision {d}");
-            }
-        }
-        // 10,000 steps, each off the plan with probability 0.3 · 3/4 = 0.225 (sd about 0.004).
-        let off = drawn as f64 / 10_000.0;
-        assert!((off - 0.225).abs() < 0.015, "{off}");
-        // Another episode draws otherwise.
-        let decisions = |k: u64| {
-            let mut walk = e.walk(2, k);
-            (0..50).map(|t| walk.step(t % 2).0).collect::<Vec<_>>()
-        };
-        assert_ne!(decisions(0), decisions(1));
-        // A walk of the best so far itself takes its plan at every step, with probability 1.
-        assert_eq!(best.walk(2, 3).step(0), (1, 1.0));
     }
 }
