@@ -61,7 +61,7 @@ pub struct ModelSearchConfig {
     /// Weight of the uniform law mixed into the laws the explorers are drawn from, and
     /// probability that a greedy explorer draws its decision again at a step.
     pub explore: f64,
-    /// Share of the explorers that are the best so far with some decisions drawn again.
+    /// Share of the explorers that are the best so far drawing its decisions again at some steps.
     pub greedy: f64,
     /// Memories ranked on the model per round.
     pub memories: usize,
