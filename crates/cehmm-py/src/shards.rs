@@ -99,9 +99,8 @@ pub fn controller_steps<'py>(
     threads: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let run = Shard::read(py, world, controllers, seed, purpose, iteration, episodes, threads)?;
-    // Explorers of two shapes may share a shard: the rows of the largest (only the steps are read).
-    let rows = run.controllers.iter().map(StepCredit::rows_of).max().unwrap_or(0);
-    let numbers = run.credited(py, StepCredit::traced(run.controllers.len(), rows), |credit, credited, values| {
+    // Only the steps are read: no credit is counted.
+    let numbers = run.credited(py, StepCredit::traced(run.controllers.len(), 0), |credit, credited, values| {
         credit.to_steps(credited, values)
     })?;
     Ok(PyArray1::from_vec(py, numbers))

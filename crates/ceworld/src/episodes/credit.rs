@@ -31,7 +31,8 @@ impl StepCredit {
         StepCredit { rows, visits: vec![0; controllers * rows], sums: vec![0.0; controllers * rows], traces: None }
     }
 
-    /// [`StepCredit::new`], keeping every episode's steps too.
+    /// [`StepCredit::new`], keeping every episode's steps too; of 0 rows, the steps alone (no
+    /// credit is counted: what a learner that reads only the steps asks for).
     pub fn traced(controllers: usize, rows: usize) -> StepCredit {
         StepCredit { traces: Some(Traces::default()), ..StepCredit::new(controllers, rows) }
     }
@@ -59,6 +60,9 @@ impl StepCredit {
         if let Some(traces) = self.traces.as_mut() {
             traces.gamma = gamma;
             traces.add(c, n_obs, episode, steps.clone());
+        }
+        if self.rows == 0 {
+            return;
         }
         let base = index * self.rows;
         to_come(c, n_obs, steps, gamma, value, |_, row, credit| {

@@ -322,12 +322,8 @@ impl<W: World> Episodes for W {
             .with_min_len(8)
             .enumerate()
             .map(|(i, value)| {
-                let (v, steps) = run_controller(
-                    self,
-                    &controllers[i / episodes],
-                    (i % episodes) as u64,
-                    &mut streams.episode(i % episodes),
-                );
+                let (c, k) = (&controllers[i / episodes], i % episodes);
+                let (v, steps) = run_controller(self, c, k as u64, &mut streams.episode(k));
                 *value = v;
                 steps as u64
             })
@@ -361,15 +357,8 @@ impl<W: World> Episodes for W {
         for (i, (value, kept)) in runs.into_iter().enumerate() {
             values[i] = value;
             steps += kept.len() as u64;
-            credit.add(
-                i / episodes,
-                (i % episodes) as u64,
-                &controllers[i / episodes],
-                n_obs,
-                kept.into_iter(),
-                gamma,
-                value,
-            );
+            let (c, k) = (i / episodes, i % episodes);
+            credit.add(c, k as u64, &controllers[c], n_obs, kept.into_iter(), gamma, value);
         }
         Ok((steps, true))
     }

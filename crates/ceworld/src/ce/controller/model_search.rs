@@ -391,15 +391,11 @@ impl ModelSearch {
                 break;
             }
             let mut values = vec![0.0; chunk.len() * c.episodes];
-            // Explorers of two shapes may share a group: the rows of the largest (only the
-            // steps are read).
-            let rows = chunk.iter().map(StepCredit::rows_of).max().unwrap_or(0);
-            self.run_kept(world, chunk, streams, c.episodes, &mut values, &mut StepCredit::traced(chunk.len(), rows))?;
+            self.run_kept(world, chunk, streams, c.episodes, &mut values)?;
             means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
         }
         // The greedy explorers' episodes, the last of those just kept.
-        let greedy_episodes = means.len().saturating_sub(first_greedy) * c.episodes;
-        let first = before + (means.len() * c.episodes - greedy_episodes);
+        let first = before + means.len().min(first_greedy) * c.episodes;
         let n_obs = world.shape().observations;
         let credited = self
             .best
@@ -410,7 +406,7 @@ impl ModelSearch {
     }
 
     /// Runs `controllers` as [`Episodes::run_controllers_credited`] does and keeps every step of
-    /// their episodes for the model.
+    /// their episodes for the model (their steps alone: no credit is counted).
     fn run_kept(
         &mut self,
         world: &dyn Episodes,
@@ -418,9 +414,9 @@ impl ModelSearch {
         streams: Streams,
         episodes: usize,
         values: &mut [f64],
-        credit: &mut StepCredit,
     ) -> Result<()> {
-        let (_, credited) = world.run_controllers_credited(controllers, streams, episodes, values, credit)?;
+        let mut credit = StepCredit::traced(controllers.len(), 0);
+        let (_, credited) = world.run_controllers_credited(controllers, streams, episodes, values, &mut credit)?;
         let traces = credit.traces.take().filter(|_| credited).ok_or_else(|| {
             Error::invalid(
                 "world",
@@ -513,8 +509,7 @@ impl ModelSearch {
         let m = c.select_episodes;
         let mut values = vec![0.0; few.len() * m];
         // The selection episodes' steps serve the model too.
-        let rows = few.iter().map(StepCredit::rows_of).max().unwrap_or(0);
-        self.run_kept(world, &few, streams, m, &mut values, &mut StepCredit::traced(few.len(), rows))?;
+        self.run_kept(world, &few, streams, m, &mut values)?;
         self.traces.keep_last(c.memory_steps);
         let scores: Vec<f64> = values.chunks(m).map(|v| mean(v.iter().copied())).collect();
         let k = (0..plans).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
