@@ -121,6 +121,44 @@ fn a_memory_is_learnt_from_every_step_within_a_small_budget() {
 }
 
 #[test]
+fn an_explorer_s_kept_decisions_are_those_the_world_was_given() {
+    use ceworld::Episodes;
+    use ceworld::episodes::Streams;
+    use ceworld::episodes::credit::StepCredit;
+    use ceworld::policy::controller::{Controller, Explore};
+    use ceworld::rng::Purpose;
+    // A memoryless controller deciding 0, drawing again half its decisions; the world pays a
+    // step after the first where the decision it was given is the first card. Within a batch
+    // (50 episodes each) and across batches (100 each, the batch is 64).
+    let w = world(false);
+    for episodes in [50, 100] {
+        let explorers: Vec<Controller> = (0..3)
+            .map(|key| Controller {
+                explore: Some(Explore { rate: 0.5, actions: CARDS as u32, key }),
+                ..Controller::moore(vec![0], vec![0; CARDS + 1])
+            })
+            .collect();
+        let streams = Streams { seed: 4, purpose: Purpose::Controllers, iteration: 0 };
+        let mut values = vec![0.0; explorers.len() * episodes];
+        let mut credit = StepCredit::traced(explorers.len(), 0);
+        w.run_controllers_credited(&explorers, streams, episodes, &mut values, &mut credit).unwrap();
+        let traces = credit.traces.unwrap();
+        let (mut paid, mut drawn) = (0, 0);
+        for (e, range) in traces.episodes().enumerate() {
+            let first = traces.obs[range.start];
+            for t in range.start + 1..range.end {
+                let d = traces.dec[t];
+                assert_eq!(traces.rew[t], f64::from(u8::from(d == first)), "episode {e} step {t}");
+                paid += usize::from(d == first);
+                drawn += usize::from(d != 0);
+            }
+            assert_eq!(values[e], traces.rew[range].iter().sum::<f64>());
+        }
+        assert!(paid > 0 && drawn > 0, "{paid} {drawn}");
+    }
+}
+
+#[test]
 fn the_selection_episodes_serve_the_model_too() {
     let (w, c) = (world(false), config(0, 1));
     let mut search = ModelSearch::start(&w, &c).unwrap();
