@@ -12,8 +12,9 @@
 //! `memories` tables, replaying every kept step through each ([`AgentModel`]), planning its
 //! decisions on half the kept episodes and ranking it by the plan's value on the model of the other
 //! half, the best `rho` refitting the laws; and every lens of at most `lens_features` features
-//! ([`Lens`]: lags of the last `window` observations and decisions, the first observation) planned
-//! and valued the same way. (3) Confirms: the `confirm` best plans of each family, the explorer
+//! ([`Lens`]: lags of the last `window` observations and decisions, the first observation) and every
+//! tally ([`Tally`]: counts of each value of a part of the observations) planned and valued the
+//! same way, as one family. (3) Confirms: the `confirm` best plans of each family, the explorer
 //! drawn from the laws that did best on its own episodes, the best so far with each decision row
 //! credited by the greedy explorers' steps (model §8's credit within episodes), in the first
 //! iteration the uniform policy, and the best so far are valued on the iteration's selection
@@ -22,6 +23,7 @@
 //! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 mod explorers;
+mod tally;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -42,6 +44,7 @@ use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
 use explorers::{credited_best, explorer};
+use tally::Tally;
 
 /// The settings of the search of memories on the model of every step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -82,11 +85,11 @@ pub struct ModelSearchConfig {
     pub select_episodes: usize,
     /// Steps kept for the model (the latest).
     pub memory_steps: usize,
-    /// Lags the lenses look at, the current observation included (0: no lenses).
+    /// Lags the lenses look at, the current observation included (0: no lenses, and no tallies).
     pub window: usize,
     /// Features (observation and decision lags, the first observation) a lens looks at, at most.
     pub lens_features: usize,
-    /// Nodes of a lens's machine, at most.
+    /// Nodes of a lens's or a tally's machine, at most.
     pub lens_nodes: usize,
     /// Stop rules, budgets, seed, threads and final evaluation ([`Rules`]).
     #[serde(flatten)]
@@ -277,7 +280,7 @@ impl Stepped for ModelSearch {
         let shape = world.shape();
         let sizes = Sizes::of(shape, &world.description());
         let (tables, elite) = self.search(sizes, c, &mut rng);
-        let lenses = self.lenses(sizes, c);
+        let lenses = self.lenses(sizes, shape.horizon, c);
         let successful = if self.best.is_none() || !spent() {
             self.confirm(world, c, iteration, sizes, [tables, lenses], challengers)?
         } else {
@@ -303,20 +306,32 @@ impl Stepped for ModelSearch {
     }
 }
 
-/// A candidate memory: a successor table (its `next`) or a lens.
+/// A candidate memory: a successor table (its `next`), a lens or a tally.
 #[derive(Clone, Debug, PartialEq)]
 enum Memory {
     Table(Vec<u32>),
     Lens(Lens),
+    Tally(Tally),
 }
 
 impl Memory {
+    /// Agent states.
+    fn states(&self, sizes: Sizes) -> usize {
+        match self {
+            Memory::Table(next) => next.len() / sizes.y,
+            Memory::Lens(lens) => lens.states(sizes),
+            Memory::Tally(tally) => tally.states(sizes),
+        }
+    }
+
     /// The agent state of every kept step, and how many states there are.
     fn replay(&self, sizes: Sizes, traces: &Traces) -> (Vec<u32>, usize) {
-        match self {
-            Memory::Table(next) => (replay(next, sizes.y, traces), next.len() / sizes.y),
-            Memory::Lens(lens) => (lens.replay(sizes, traces), lens.states(sizes)),
-        }
+        let states = match self {
+            Memory::Table(next) => replay(next, sizes.y, traces),
+            Memory::Lens(lens) => lens.replay(sizes, traces),
+            Memory::Tally(tally) => tally.replay(sizes, traces),
+        };
+        (states, self.states(sizes))
     }
 
     /// The controller that decides `act[s]` in agent state `s`.
@@ -324,6 +339,7 @@ impl Memory {
         match self {
             Memory::Table(next) => Controller::moore(act, next.clone()),
             Memory::Lens(lens) => lens.controller(&act, sizes),
+            Memory::Tally(tally) => tally.controller(&act, sizes),
         }
     }
 
@@ -455,16 +471,17 @@ impl ModelSearch {
         (plans, elite)
     }
 
-    /// Every lens ([`Lens::all`]) planned and valued on the model of the kept steps, best first.
-    fn lenses(&self, sizes: Sizes, c: &ModelSearchConfig) -> Vec<Plan> {
+    /// Every lens ([`Lens::all`]) and tally ([`Tally::all`], its counts within `horizon`) planned
+    /// and valued on the model of the kept steps, best first.
+    fn lenses(&self, sizes: Sizes, horizon: usize, c: &ModelSearchConfig) -> Vec<Plan> {
         if c.window == 0 {
             return Vec::new();
         }
-        let lenses = Lens::all(c.window, c.lens_features, sizes, c.lens_nodes);
-        let mut plans: Vec<Plan> = lenses
-            .par_iter()
-            .map(|&lens| Memory::Lens(lens).rank(sizes, &self.traces, c, &vec![0; lens.states(sizes)]))
-            .collect();
+        let lenses = Lens::all(c.window, c.lens_features, sizes, c.lens_nodes).into_iter().map(Memory::Lens);
+        let tallies = Tally::all(sizes, c.lens_nodes, horizon).into_iter().map(Memory::Tally);
+        let memories: Vec<Memory> = lenses.chain(tallies).collect();
+        let mut plans: Vec<Plan> =
+            memories.par_iter().map(|m| m.rank(sizes, &self.traces, c, &vec![0; m.states(sizes)])).collect();
         plans.sort_by(|p, q| q.value.total_cmp(&p.value));
         plans
     }
