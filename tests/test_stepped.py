@@ -129,7 +129,7 @@ def test_the_search_of_memories_on_the_model_of_every_step_learns_a_latch_within
         cehmm.run("model-search", cehmm.TargetTracking(case=1), max_iterations=1, progress=False)
     # A .pomdp file's world gives its steps' rewards: on tiger, 10,000 steps learn to open a door
     # (listening forever is worth -(1 - 0.95^20) / 0.05 = -12.83 over 20 steps). Seeds 0-4 give
-    # -11.41, -13.45, -3.48, -8.22 and -10.30 (the explorers' draws at each step; before them
-    # -10.09, -9.76, -10.58, -10.30, -12.50): tiger's doors are a weak spot of the learner.
+    # -10.18, -8.65, -9.97, -7.58 and -8.42 (each explorer on episodes of its own; before,
+    # sharing them, -11.41, -13.45, -3.48, -8.22, -10.30): tiger's doors are a weak spot.
     tiger = cehmm.run("model-search", cehmm.PomdpWorld(TIGER, horizon=20), max_env_steps=10_000, progress=False)
     assert tiger.evaluation.mean > -12.83

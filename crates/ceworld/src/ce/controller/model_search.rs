@@ -2,19 +2,19 @@
 //! step it takes and ranks candidate memories on the model those steps give, instead of valuing
 //! each candidate on fresh episodes of its own.
 //!
-//! Each iteration (1) explores: `samples` controllers run `episodes` episodes each, keeping their
-//! steps (the last `memory_steps`: [`Traces`]); they are drawn from the laws mixed with `explore`
-//! of the uniform law, and a `greedy` share of them, once there is a best so far, is that best with
-//! its decision drawn again with probability `explore` at each step
-//! ([`crate::policy::controller::Explore`]: the model weights each step by the inverse of its
+//! Each iteration (1) explores: `samples` controllers run `episodes` episodes each, each on
+//! episodes of its own, keeping their steps (the last `memory_steps`: [`Traces`]); they are drawn
+//! from the laws mixed with `explore` of the uniform law, and a `greedy` share of them, once there
+//! is a best so far, is that best with its decision drawn again with probability `explore` at each
+//! step ([`crate::policy::controller::Explore`]: the model weights each step by the inverse of its
 //! decision's probability). (2) Searches memories on the model, with no step of the world: `rounds`
 //! rounds of the cross-entropy method (model §3) over the laws of a successor table, each drawing
 //! `memories` tables, replaying every kept step through each ([`AgentModel`]), planning its
 //! decisions on half the kept episodes and ranking it by the plan's value on the model of the other
 //! half, the best `rho` refitting the laws; and every lens of at most `lens_features` features
-//! ([`Lens`]: lags of the last `window` observations and decisions, the first observation) and every
-//! tally ([`Tally`]: counts of each value of a part of the observations) planned and valued the
-//! same way, as one family. (3) Confirms: the `confirm` best plans of each family, the explorer
+//! ([`Lens`]: lags of the last `window` observations and decisions, the first observation) and
+//! every tally ([`Tally`]: counts of each value of a part of the observations) planned and valued
+//! the same way, as one family. (3) Confirms: the `confirm` best plans of each family, the explorer
 //! drawn from the laws that did best on its own episodes, the best so far with each decision row
 //! credited by the greedy explorers' steps (model §8's credit within episodes), in the first
 //! iteration the uniform policy, and the best so far are valued on the iteration's selection
@@ -306,6 +306,14 @@ impl Stepped for ModelSearch {
     }
 }
 
+/// The episodes of explorer `j` of an iteration: its own, drawn from no other explorer's (where
+/// the explorers shared the same episodes, as the controllers valued against each other do, the
+/// model would learn from as many of the world's draws as episodes an explorer runs: on
+/// `MultiarmedBanditEasy`, four sets of arms an iteration).
+fn explorer_streams(seed: u64, iteration: usize, j: usize) -> Streams {
+    Streams { seed, purpose: Purpose::Controllers, iteration: (iteration as u64) << 32 | j as u64 }
+}
+
 /// A candidate memory: a successor table (its `next`), a lens or a tally.
 #[derive(Clone, Debug, PartialEq)]
 enum Memory {
@@ -397,18 +405,17 @@ impl ModelSearch {
         if let Some(best) = &self.best {
             explorers.extend((0..greedy).map(|_| explorer(&best.controller, c.explore, a, rng)));
         }
-        let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
-        let group = super::group_size(world.batch(), c.episodes);
         let mut means = Vec::with_capacity(c.samples);
         let first_greedy = c.samples - greedy;
         let before = self.traces.ends.len();
-        for chunk in explorers.chunks(group) {
+        for (j, e) in explorers.iter().enumerate() {
             if !means.is_empty() && spent() {
                 break;
             }
-            let mut values = vec![0.0; chunk.len() * c.episodes];
-            self.run_kept(world, chunk, streams, c.episodes, &mut values)?;
-            means.extend(values.chunks(c.episodes).map(|v| mean(v.iter().copied())));
+            let mut values = vec![0.0; c.episodes];
+            let streams = explorer_streams(c.rules.seed, iteration, j);
+            self.run_kept(world, std::slice::from_ref(e), streams, c.episodes, &mut values)?;
+            means.push(mean(values.iter().copied()));
         }
         // The greedy explorers' episodes, the last of those just kept.
         let first = before + means.len().min(first_greedy) * c.episodes;
