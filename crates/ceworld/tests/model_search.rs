@@ -178,6 +178,18 @@ fn the_selection_episodes_serve_the_model_too() {
 }
 
 #[test]
+fn each_explorer_runs_on_episodes_of_its_own() {
+    // Every observation a card: 3^6 sequences of an episode. Explorers sharing their episodes
+    // (common random numbers) would give 4 sequences, one per episode index, however many ran.
+    let (w, c) = (repeat_back(2), config(0, 1));
+    let mut search = ModelSearch::start(&w, &c).unwrap();
+    search.step(&w, &c, 0, &|| false).unwrap();
+    let explored: std::collections::HashSet<&[u32]> =
+        search.traces.episodes().take(c.samples * c.episodes).map(|e| &search.traces.obs[e]).collect();
+    assert!(explored.len() > c.samples * c.episodes * 9 / 10, "{} sequences", explored.len());
+}
+
+#[test]
 fn a_lens_finds_the_card_two_steps_back_and_tables_alone_find_the_first_card() {
     // The lens of lag 2 (three states) among all of at most three features.
     let lag = run_stepped::<ModelSearch>(&repeat_back(2), &config(6000, 1), None, |_| Flow::Continue).unwrap();
