@@ -83,6 +83,11 @@ impl Sizes {
         (1 << self.parts) - 1
     }
 
+    /// The views of one part each (where the observation has several), then of the whole.
+    pub fn views(self) -> impl Iterator<Item = u32> {
+        (0..if self.parts > 1 { self.parts } else { 0 }).map(|f| 1 << f).chain([self.whole()])
+    }
+
     /// Values of the parts of `view`.
     pub fn seen(self, view: u32) -> usize {
         set(view & self.whole()).map(|f| self.radices[f]).product()
@@ -152,12 +157,10 @@ impl Lens {
             l
         };
         // One part or the whole observation (views of several parts among many would multiply
-        // the lenses by their subsets).
-        let parts = if sizes.parts > 1 { sizes.parts } else { 0 };
+        // the lenses by their subsets); a lens that looks at no observation, the whole.
         let views = move |l: Lens| {
             let looks = l.lags != 0 || l.first;
-            let one = (0..if looks { parts } else { 0 }).map(|f| 1 << f);
-            one.chain([sizes.whole()]).map(move |view| Lens { view, ..l })
+            sizes.views().filter(move |&view| looks || view == sizes.whole()).map(move |view| Lens { view, ..l })
         };
         let mut lenses: Vec<Lens> = subsets(features, most)
             .iter()

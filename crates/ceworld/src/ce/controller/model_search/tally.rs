@@ -32,8 +32,7 @@ impl Tally {
     /// known) that keeps its machine within `max_nodes` nodes and at least 1, with and without the
     /// current observation.
     pub fn all(sizes: Sizes, max_nodes: usize, horizon: usize) -> Vec<Tally> {
-        let views: Vec<u32> =
-            (0..if sizes.parts > 1 { sizes.parts } else { 0 }).map(|f| 1 << f).chain([sizes.whole()]).collect();
+        let views: Vec<u32> = sizes.views().collect();
         let mut out = Vec::new();
         for &of in &views {
             let r = sizes.seen(of);
@@ -110,7 +109,7 @@ impl Tally {
 fn largest_cap(r: usize, max_nodes: usize, horizon: usize) -> Option<usize> {
     let fits = |cap: usize| (cap as u128 + 1).checked_pow(r as u32).is_some_and(|n| n <= max_nodes as u128);
     let most = if horizon > 0 { horizon } else { max_nodes };
-    if !fits(1) || most == 0 {
+    if !fits(1) {
         return None;
     }
     let mut cap = 1;
