@@ -53,14 +53,14 @@ def test_box_observations_are_cut_at_quantiles_of_a_warm_up_by_default() -> None
     world = cehmm.PythonWorld(Line())
     record = world.description["spaces"]["observation"]
     assert record["encoding"] == "bins"
-    # 2 dimensions: 8 bins each at most (8² = 64 cells); x uniform in [0, 10): its 7 edges near
-    # 10·k/8; the constant second dimension gives one edge, collapsed.
+    # 2 dimensions: 16 bins each at most (16² = 256 cells); x uniform in [0, 10): its 15 edges
+    # near 10·k/16; the constant second dimension gives one edge, collapsed.
     x_edges, flat_edges = record["edges"]
-    assert len(x_edges) == 7 and np.allclose(x_edges, [10 * k / 8 for k in range(1, 8)], atol=0.4)
+    assert len(x_edges) == 15 and np.allclose(x_edges, [10 * k / 16 for k in range(1, 16)], atol=0.4)
     assert flat_edges == [0.0]
-    assert world.n_observations == 8 * 2
+    assert world.n_observations == 16 * 2
     # The cells' parts, for a learner that looks at some of them (model §10).
-    assert record["radices"] == [8, 2]
+    assert record["radices"] == [16, 2]
     # The warm-up is seeded: the same edges again; a copy (for a backend's workers) keeps them.
     assert cehmm.PythonWorld(Line()).description["spaces"] == world.description["spaces"]
     assert pickle.loads(pickle.dumps(world)).description == world.description

@@ -106,7 +106,7 @@ def test_the_search_of_memories_looks_at_the_parts_of_a_box_observation() -> Non
     # Issue 47: the encoding's bins per dimension reach the engine (the description's radices),
     # whose lenses may look at the card's dimension alone, a step back.
     world = cehmm.PythonWorld(EchoNoisy(), horizon=8)
-    assert world.description["spaces"]["observation"]["radices"] == [8, 3]
+    assert world.description["spaces"]["observation"]["radices"] == [16, 3]
     settings = dict(memories=50, rounds=3, threads=1, seed=0, eval_episodes=200, progress=False)
     result = cehmm.run("model-search", world, max_env_steps=10_000, **settings)
     assert result.evaluation.mean == 7.0
@@ -120,7 +120,8 @@ def test_the_search_of_memories_on_the_model_of_every_step_learns_a_latch_within
     maze = TMaze(corridor=4)
     result = cehmm.run("model-search", maze, max_env_steps=20_000, memories=100, rounds=5, seed=0, progress=False)
     assert result.stop_reason in ("max_env_steps", "patience")
-    assert 0 < result.env_steps <= 20_000 + 16 * 4 * maze.horizon
+    # Past the budget by one explorer's episodes at most (the selection keeps within it).
+    assert 0 < result.env_steps <= 20_000 + 4 * maze.horizon
     assert result.evaluation.mean == pytest.approx(1.0)
     assert result.policy.provenance["method"] == "model-search"
     # A world whose value is of the whole episode (the paper's target tracking) is refused,

@@ -49,8 +49,9 @@ MAX_FLAT = 4096
 #: of at most about 220 MB, which the engine reads back (model §8).
 HASHED_CELLS = 128
 #: The most cells of a default :class:`Bins` encoding (bins per dimension: the most ``b <= 16``
-#: with ``b ** dims <= 64``, at least 2).
-BINS_CELLS = 64
+#: with ``b ** dims <= 256``, at least 2: 16 for two dimensions, 6 for three, 4 for four). A
+#: learner that looks at one dimension at a time (model §10's views) sees 16 values of it, not 8.
+BINS_CELLS = 256
 #: Steps of random actions the default :class:`Bins` fits its quantiles on.
 WARMUP_STEPS = 2000
 #: Values per dimension of the default :class:`Grid`.

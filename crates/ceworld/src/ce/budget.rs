@@ -97,6 +97,11 @@ impl Budget {
         self.max_env_steps.is_some_and(|m| steps >= m)
     }
 
+    /// The steps of the world the budget in steps leaves after `steps` (`None` without one).
+    pub fn left(&self, steps: u64) -> Option<u64> {
+        self.max_env_steps.map(|m| m.saturating_sub(steps))
+    }
+
     /// Which budget `seconds` and `steps` have spent, if one is: the time limit first.
     pub fn exhausted(&self, seconds: f64, steps: u64) -> Option<StopReason> {
         if self.time_limit.is_some_and(|t| seconds >= t) {
@@ -244,6 +249,7 @@ mod tests {
         set(&mut b, "time_limit", Given::Real(2.5)).unwrap();
         assert_eq!(b, Budget { time_limit: Some(2.5), max_env_steps: Some(5000) });
         assert!(b.validate().is_ok() && !b.spent(4999) && b.spent(5000) && !Budget::default().spent(u64::MAX));
+        assert_eq!([b.left(4999), b.left(6000), Budget::default().left(7)], [Some(1), Some(0), None]);
         for bad in [Budget::steps(0), Budget::seconds(0.0), Budget::seconds(f64::INFINITY), Budget::seconds(f64::NAN)] {
             assert!(bad.validate().is_err(), "{bad:?}");
         }

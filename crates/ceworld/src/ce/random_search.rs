@@ -91,7 +91,7 @@ impl Stepped for RandomSearch {
         world: &dyn Episodes,
         c: &RandomSearchConfig,
         iteration: usize,
-        spent: &dyn Fn() -> bool,
+        left: &dyn Fn() -> Option<u64>,
     ) -> Result<IterationRecord> {
         let shape = world.shape();
         let mut rng = stream(c.rules.seed, Purpose::Init, iteration as u64, 0);
@@ -109,7 +109,7 @@ impl Stepped for RandomSearch {
         let group = crate::ce::controller::group_size(world.batch(), c.episodes);
         let mut means = Vec::with_capacity(c.samples);
         for chunk in controllers.chunks(group) {
-            if !means.is_empty() && spent() {
+            if !means.is_empty() && left() == Some(0) {
                 break;
             }
             let mut values = vec![0.0; chunk.len() * c.episodes];

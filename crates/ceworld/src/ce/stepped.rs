@@ -100,16 +100,16 @@ pub trait Stepped: Clone + Serialize + DeserializeOwned + Send + Sync {
     /// The state before the first iteration.
     fn start(world: &dyn Episodes, config: &Self::Config) -> Result<Self>;
     /// Iteration `iteration` (from 0), its record's `seconds` and `env_steps` left to the spine;
-    /// an iteration is successful when it finds a better result. `spent` says whether a budget
-    /// is spent: an optimiser that can cut its iteration asks it between its batches of
-    /// episodes (after the first). The world counts its steps: an iteration cut by an interrupt
-    /// is dropped, its steps with it.
+    /// an iteration is successful when it finds a better result. `left` gives the steps of the
+    /// world the budget in steps leaves (`None` without one): an optimiser that can cut its
+    /// iteration asks it between its batches of episodes (after the first). The world counts its
+    /// steps: an iteration cut by an interrupt is dropped, its steps with it.
     fn step(
         &mut self,
         world: &dyn Episodes,
         config: &Self::Config,
         iteration: usize,
-        spent: &dyn Fn() -> bool,
+        left: &dyn Fn() -> Option<u64>,
     ) -> Result<IterationRecord>;
     /// The best policy so far.
     fn policy(&self, world: &dyn Episodes) -> Result<Hhmm>;
@@ -350,9 +350,9 @@ impl<O: Stepped> Iterations for SteppedIterations<'_, '_, O> {
         // The iteration runs on a copy: one cut is dropped, the state is the one before it.
         let mut next = run.state.clone();
         let budget = self.rules.budget;
-        let spent = || budget.spent(self.world.steps());
+        let left = || budget.left(self.world.steps());
         let world: &dyn Episodes = self.world;
-        let mut record = self.pool.install(|| next.step(world, self.config, iteration, &spent))?;
+        let mut record = self.pool.install(|| next.step(world, self.config, iteration, &left))?;
         record.iteration = iteration;
         record.seconds = self.clock.seconds();
         record.env_steps = self.world.steps();

@@ -3,7 +3,8 @@
 //! looks at: some lags of a window (observation lag 0 the current one) and, or not, the first
 //! observation. A lens's agent states are few (a task that repeats the card four steps back needs
 //! one lag: as many states as cards), so its model is learnt from few steps, while the machine
-//! that carries it holds every observation and decision up to its oldest lag. Where an observation
+//! that carries it holds every observation (what its view sees of it) and decision up to its
+//! oldest lag. Where an observation
 //! is made of parts (the dimensions of a `Box` cut into bins: [`Sizes::radices`]), a lens may look
 //! at some of them only (its `view`), so that a lag of the one part that matters does not multiply
 //! the states by the others. Every lens of a few features is ranked on the model of the same steps.
@@ -165,8 +166,8 @@ impl Lens {
         let mut lenses: Vec<Lens> = subsets(features, most)
             .iter()
             .map(|s| lens_of(s))
-            .filter(|l| l.nodes(sizes) <= max_nodes as u128)
             .flat_map(views)
+            .filter(|l| l.nodes(sizes) <= max_nodes as u128)
             .collect();
         lenses.sort_by_key(|l| l.features());
         lenses
@@ -177,10 +178,11 @@ impl Lens {
         (self.lags.count_ones() + self.decisions.count_ones()) as usize + usize::from(self.first)
     }
 
-    /// Nodes of the machine ([`Lens::controller`]): each past observation and decision held, or
-    /// none yet, and the first observation, or none yet, where it is looked at.
+    /// Nodes of the machine ([`Lens::controller`]): the parts of the view of each past
+    /// observation held, or none yet, each past decision held, or none yet, and the parts of the
+    /// view of the first observation, or none yet, where it is looked at.
     pub fn nodes(self, sizes: Sizes) -> u128 {
-        let (y, a) = (sizes.y as u128 + 1, sizes.a as u128 + 1);
+        let (y, a) = (sizes.seen(self.view) as u128 + 1, sizes.a as u128 + 1);
         y.saturating_pow(oldest(self.lags) as u32)
             .saturating_mul(a.saturating_pow(oldest(self.decisions) as u32))
             .saturating_mul(if self.first { y } else { 1 })
@@ -195,10 +197,10 @@ impl Lens {
             * if self.first { y } else { 1 }
     }
 
-    /// The agent state of a step that observes `current`, with `past(j)` the observation `j`
-    /// steps before plus one and `before(j)` the decision `j` steps before plus one (0: none,
-    /// before the episode's start), and the episode's `first`; of each observation, the parts of
-    /// the view.
+    /// The agent state of a step whose observation's view is `current`, with `past(j)` the
+    /// view of the observation `j` steps before plus one and `before(j)` the decision `j` steps
+    /// before plus one (0: none, before the episode's start), and the view of the episode's
+    /// `first` observation.
     fn state(
         self,
         sizes: Sizes,
@@ -208,32 +210,27 @@ impl Lens {
         first: usize,
     ) -> usize {
         let (y, a) = (sizes.seen(self.view), sizes.a);
-        let seen = |o: usize| sizes.project(self.view, o);
         let mut s = 0;
         for j in set(self.lags) {
-            s = if j == 0 {
-                s * y + seen(current)
-            } else {
-                let p = past(j);
-                s * (y + 1) + if p == 0 { 0 } else { seen(p - 1) + 1 }
-            };
+            s = if j == 0 { s * y + current } else { s * (y + 1) + past(j) };
         }
         for j in set(self.decisions) {
             s = s * (a + 1) + before(j);
         }
-        if self.first { s * y + seen(first) } else { s }
+        if self.first { s * y + first } else { s }
     }
 
     /// The agent state of every kept step.
     pub fn replay(self, sizes: Sizes, traces: &Traces) -> Vec<u32> {
         let mut states = Vec::with_capacity(traces.steps());
+        let seen = |o: u32| sizes.project(self.view, o as usize);
         for episode in traces.episodes() {
-            let first = traces.obs[episode.start] as usize;
+            let first = seen(traces.obs[episode.start]);
             for t in episode.clone() {
                 let inside = |j: usize| t >= episode.start + j;
-                let past = |j: usize| if inside(j) { traces.obs[t - j] as usize + 1 } else { 0 };
+                let past = |j: usize| if inside(j) { seen(traces.obs[t - j]) + 1 } else { 0 };
                 let before = |j: usize| if inside(j) { traces.dec[t - j] as usize + 1 } else { 0 };
-                states.push(self.state(sizes, traces.obs[t] as usize, past, before, first) as u32);
+                states.push(self.state(sizes, seen(traces.obs[t]), past, before, first) as u32);
             }
         }
         states
@@ -241,10 +238,11 @@ impl Lens {
 
     /// The Mealy machine that decides `act[s]` in agent state `s`. Its node holds, plus one each
     /// (0: none yet), the last decisions up to the oldest lag looked at (the latest in the lowest
-    /// digit), then the last observations the same way, then the first where looked at (the
-    /// highest digit), so that node 0 is the start. `nodes(sizes)` must fit a `usize`.
+    /// digit), then the views of the last observations the same way, then the view of the first
+    /// where looked at (the highest digit), so that node 0 is the start. `nodes(sizes)` must fit
+    /// a `usize`.
     pub fn controller(self, act: &[u32], sizes: Sizes) -> Controller {
-        let (y, ys, a1) = (sizes.y, sizes.y + 1, sizes.a + 1);
+        let (y, ys, a1) = (sizes.y, sizes.seen(self.view) + 1, sizes.a + 1);
         let (obs_held, dec_held) = (ys.pow(oldest(self.lags) as u32), a1.pow(oldest(self.decisions) as u32));
         let nodes = self.nodes(sizes) as usize;
         let (mut on, mut next) = (Vec::with_capacity(nodes * y), Vec::with_capacity(nodes * y));
@@ -254,10 +252,11 @@ impl Lens {
             let past = |j: usize| window / ys.pow(j as u32 - 1) % ys;
             let before = |j: usize| decisions / a1.pow(j as u32 - 1) % a1;
             for o in 0..y {
-                let first_now = if first == 0 { o + 1 } else { first };
-                let d = act[self.state(sizes, o, past, before, first_now - 1)];
+                let seen = sizes.project(self.view, o);
+                let first_now = if first == 0 { seen + 1 } else { first };
+                let d = act[self.state(sizes, seen, past, before, first_now - 1)];
                 on.push(d);
-                let window = (window * ys + o + 1) % obs_held;
+                let window = (window * ys + seen + 1) % obs_held;
                 let decisions = (decisions * a1 + d as usize + 1) % dec_held;
                 let first_held = if self.first { first_now * obs_held } else { 0 };
                 next.push(((first_held + window) * dec_held + decisions) as u32);
@@ -340,6 +339,10 @@ mod tests {
         // The current observation's second part: 3 states; every view of each observation lens.
         let l = Lens { lags: 1, decisions: 0, first: false, view: 0b10 };
         assert_eq!((l.states(sizes), l.nodes(sizes)), (3, 1));
+        // Its second part two steps back: the machine holds that part of the last two
+        // observations (4 · 4 nodes, where whole ones would make 7 · 7).
+        let l = Lens { lags: 0b100, decisions: 0, first: false, view: 0b10 };
+        assert_eq!((l.states(sizes), l.nodes(sizes)), (4, 16));
         let all = Lens::all(2, 1, sizes, usize::MAX);
         // None; the current, the previous and the first observation, three views each; the
         // decision before.

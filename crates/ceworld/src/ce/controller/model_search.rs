@@ -186,11 +186,8 @@ impl Stepped for ModelSearch {
     }
 
     fn episodes(c: &ModelSearchConfig) -> usize {
-        // The explorers; the plans of each family and the best so far on the selection episodes.
-        // The best explorer, the credited best so far (the uniform policy in the first
-        // iteration), the best so far.
-        let families = if c.window > 0 { 2 } else { 1 };
-        c.samples.saturating_mul(c.episodes) + (families * c.confirm + 3).saturating_mul(c.select_episodes)
+        // The explorers, then those valued on the selection episodes.
+        c.samples.saturating_mul(c.episodes) + selected(c).saturating_mul(c.select_episodes)
     }
 
     fn validate(c: &ModelSearchConfig) -> Result<()> {
@@ -258,13 +255,13 @@ impl Stepped for ModelSearch {
         world: &dyn Episodes,
         c: &ModelSearchConfig,
         iteration: usize,
-        spent: &dyn Fn() -> bool,
+        left: &dyn Fn() -> Option<u64>,
     ) -> Result<IterationRecord> {
         let mut rng = stream(c.rules.seed, Purpose::Init, iteration as u64, 0);
         // The explorers and the search start as wide as the laws widened by `explore`: the data
         // have grown since the last iteration's laws were fitted on fewer steps.
         self.laws.inject(c.explore);
-        let (explorers, explored, credited) = self.explore(world, c, iteration, &mut rng, spent)?;
+        let (explorers, explored, credited) = self.explore(world, c, iteration, &mut rng, left)?;
         // The explorer drawn from the laws that did best on its own episodes and the credited best
         // so far challenge the plans.
         let first_best = |b: usize, i: usize| if explored[i] > explored[b] { i } else { b };
@@ -281,11 +278,7 @@ impl Stepped for ModelSearch {
         let sizes = Sizes::of(shape, &world.description());
         let (tables, elite) = self.search(sizes, c, &mut rng);
         let lenses = self.lenses(sizes, shape.horizon, c);
-        let successful = if self.best.is_none() || !spent() {
-            self.confirm(world, c, iteration, sizes, [tables, lenses], challengers)?
-        } else {
-            false
-        };
+        let successful = self.confirm(world, c, iteration, sizes, [tables, lenses], challengers, left)?;
         let best = self.best.as_ref().map_or(f64::NEG_INFINITY, |b| b.value);
         Ok(IterationRecord {
             iteration,
@@ -304,6 +297,14 @@ impl Stepped for ModelSearch {
         let best = self.best.as_ref().ok_or_else(|| Error::invalid("model-search", "no iteration has run"))?;
         best.controller.to_hhmm(shape.observations, shape.decisions)
     }
+}
+
+/// The most controllers an iteration values on its selection episodes: the plans of each family
+/// (`confirm` each), the best explorer, the credited best so far (or, in the first iteration,
+/// the uniform policy) and the best so far.
+fn selected(c: &ModelSearchConfig) -> usize {
+    let families = if c.window > 0 { 2 } else { 1 };
+    families * c.confirm + 3
 }
 
 /// The episodes of explorer `j` of an iteration: its own, drawn from no other explorer's (where
@@ -397,7 +398,7 @@ impl ModelSearch {
         c: &ModelSearchConfig,
         iteration: usize,
         rng: &mut EngineRng,
-        spent: &dyn Fn() -> bool,
+        left: &dyn Fn() -> Option<u64>,
     ) -> Result<(Vec<Controller>, Vec<f64>, Option<Controller>)> {
         let greedy = if self.best.is_some() { (c.greedy * c.samples as f64).round() as usize } else { 0 };
         let mut explorers: Vec<Controller> = (0..c.samples - greedy).map(|_| self.laws.draw(rng)).collect();
@@ -408,8 +409,10 @@ impl ModelSearch {
         let mut means = Vec::with_capacity(c.samples);
         let first_greedy = c.samples - greedy;
         let before = self.traces.ends.len();
+        // The steps the selection will take, kept for it.
+        let reserve = self.selection_steps(selected(c), c.select_episodes);
         for (j, e) in explorers.iter().enumerate() {
-            if !means.is_empty() && spent() {
+            if !means.is_empty() && left().is_some_and(|l| l <= reserve) {
                 break;
             }
             let mut values = vec![0.0; c.episodes];
@@ -493,10 +496,20 @@ impl ModelSearch {
         plans
     }
 
+    /// The steps of `episodes` selection episodes of each of `controllers`, foreseen from the
+    /// kept episodes' mean length (0 before any).
+    fn selection_steps(&self, controllers: usize, episodes: usize) -> u64 {
+        let kept = self.traces.ends.len().max(1);
+        (controllers * episodes * self.traces.steps()).div_ceil(kept) as u64
+    }
+
     /// Values the `confirm` best distinct plans of each family, the `challengers` (the best
     /// explorer, the credited best so far) and the best so far on the iteration's selection
-    /// episodes (fresh ones, the same for all); the best of the others replaces the best so far
-    /// where it beats it on them (then true), else they add to its value.
+    /// episodes (fresh ones, the same for all: `select_episodes`, none where the budget in steps
+    /// `left` would not cover them once there is a best so far, as many as it covers before);
+    /// the best of the others replaces the best so far where it beats it on them (then true),
+    /// else they add to its value.
+    #[allow(clippy::too_many_arguments)]
     fn confirm<const F: usize>(
         &mut self,
         world: &dyn Episodes,
@@ -505,6 +518,7 @@ impl ModelSearch {
         sizes: Sizes,
         families: [Vec<Plan>; F],
         challengers: Vec<Controller>,
+        left: &dyn Fn() -> Option<u64>,
     ) -> Result<bool> {
         let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
@@ -529,8 +543,15 @@ impl ModelSearch {
         }
         let plans = few.len();
         few.extend(held.cloned());
+        let each = self.selection_steps(few.len(), 1).max(1);
+        let covered = left().map_or(c.select_episodes, |l| usize::try_from(l / each).unwrap_or(usize::MAX));
+        // Fewer episodes would let a plan replace the best so far on a lucky one or two.
+        let m = match held {
+            _ if covered >= c.select_episodes => c.select_episodes,
+            None => covered.max(1),
+            Some(_) => return Ok(false),
+        };
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Select, iteration: iteration as u64 };
-        let m = c.select_episodes;
         let mut values = vec![0.0; few.len() * m];
         // The selection episodes' steps serve the model too.
         self.run_kept(world, &few, streams, m, &mut values)?;
