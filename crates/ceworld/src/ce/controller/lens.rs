@@ -4,10 +4,9 @@
 //! observation. A lens's agent states are few (a task that repeats the card four steps back needs
 //! one lag: as many states as cards), so its model is learnt from few steps, while the machine
 //! that carries it holds every observation (what its view sees of it) and decision up to its
-//! oldest lag. Where an observation
-//! is made of parts (the dimensions of a `Box` cut into bins: [`Sizes::radices`]), a lens may look
-//! at some of them only (its `view`), so that a lag of the one part that matters does not multiply
-//! the states by the others. Every lens of a few features is ranked on the model of the same steps.
+//! oldest lag. Where an observation is made of parts (the dimensions of a `Box` cut into bins:
+//! [`Sizes::radices`]), a lens may look at some of them only (its `view`), so that a lag of the
+//! one part that matters does not multiply the states by the others. Every lens of a few features is ranked on the model of the same steps.
 
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
