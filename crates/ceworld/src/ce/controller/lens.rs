@@ -222,7 +222,9 @@ impl Lens {
     /// The agent state of every kept step.
     pub fn replay(self, sizes: Sizes, traces: &Traces) -> Vec<u32> {
         let mut states = Vec::with_capacity(traces.steps());
-        let seen = |o: u32| sizes.project(self.view, o as usize);
+        // The view of each observation, projected once.
+        let views: Vec<usize> = (0..sizes.y).map(|o| sizes.project(self.view, o)).collect();
+        let seen = |o: u32| views[o as usize];
         for episode in traces.episodes() {
             let first = seen(traces.obs[episode.start]);
             for t in episode.clone() {
@@ -245,13 +247,13 @@ impl Lens {
         let (obs_held, dec_held) = (ys.pow(oldest(self.lags) as u32), a1.pow(oldest(self.decisions) as u32));
         let nodes = self.nodes(sizes) as usize;
         let (mut on, mut next) = (Vec::with_capacity(nodes * y), Vec::with_capacity(nodes * y));
+        let views: Vec<usize> = (0..y).map(|o| sizes.project(self.view, o)).collect();
         for q in 0..nodes {
             let (decisions, rest) = (q % dec_held, q / dec_held);
             let (first, window) = (rest / obs_held, rest % obs_held);
             let past = |j: usize| window / ys.pow(j as u32 - 1) % ys;
             let before = |j: usize| decisions / a1.pow(j as u32 - 1) % a1;
-            for o in 0..y {
-                let seen = sizes.project(self.view, o);
+            for &seen in &views {
                 let first_now = if first == 0 { seen + 1 } else { first };
                 let d = act[self.state(sizes, seen, past, before, first_now - 1)];
                 on.push(d);
