@@ -193,9 +193,12 @@ def optimize_controller(
             is cut at the limit, with fewer episodes (``evaluation.episodes``).
         max_env_steps: sampled values: stop once learning has taken this many of the world's
             steps (selection episodes included; every run and session together; the
-            evaluation's counted apart in ``eval_env_steps``): the iteration that reaches it is
-            cut between groups of about 1024 episodes, as the time limit cuts it, and
-            ``stop_reason`` is ``"max_env_steps"``. Refused on exact values (no step is taken).
+            evaluation's counted apart in ``eval_env_steps``): an iteration values no more
+            controllers than the steps left cover once its selection's are kept (foreseen from
+            the mean length of its episodes), so the count passes the budget by one batch of
+            the world at most, or stops short of it where the steps left no longer cover a
+            selection; ``stop_reason`` is ``"max_env_steps"``. Refused on exact values (no step
+            is taken).
         tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
             counts as progress.
         seed: seed of every random stream.

@@ -6,7 +6,7 @@
 #[path = "common/temp.rs"]
 mod temp;
 
-use ceworld::ce::budget::{Budget, CUT_EPISODES};
+use ceworld::ce::budget::Budget;
 use ceworld::ce::controller::{ValueKind, Valued, optimize_controller};
 use ceworld::ce::random_search::{RandomSearch, RandomSearchConfig};
 use ceworld::ce::stepped::{Rules, run_stepped};
@@ -72,13 +72,13 @@ fn run_ce(config: &CeConfig) -> CeResult {
 
 #[test]
 fn episode_ce_counts_every_step_and_cuts_the_iteration_that_reaches_the_budget() {
-    // Two whole iterations of 1000 episodes, then half of one: the third is cut after the second
-    // batch of 256 episodes, the first that reaches the budget.
+    // Two whole iterations of 1000 episodes, then part of one: the third is cut where it reaches
+    // the budget, after a group of 256 episodes and the 44 that the steps left cover.
     let per_iteration = (1000 * HORIZON) as u64;
     let r = run_ce(&ce(1000, 2 * per_iteration + 300 * HORIZON as u64, 1));
     assert_eq!(r.stop, StopReason::MaxEnvSteps);
     let steps: Vec<u64> = r.history.iter().map(|h| h.env_steps).collect();
-    assert_eq!(steps, [per_iteration, 2 * per_iteration, 2 * per_iteration + (2 * CUT_EPISODES * HORIZON) as u64]);
+    assert_eq!(steps, [per_iteration, 2 * per_iteration, 2 * per_iteration + (300 * HORIZON) as u64]);
     assert_eq!(r.env_steps, steps[2]);
     // The final evaluation's steps are counted apart: 300 episodes of HORIZON steps.
     assert_eq!(r.eval_env_steps, (300 * HORIZON) as u64);
@@ -159,7 +159,10 @@ fn the_controller_search_counts_its_steps_and_stops_on_its_budget() {
     assert_eq!(one.stop, StopReason::MaxEnvSteps);
     let last = one.history.last().unwrap();
     assert_eq!(last.record.env_steps, one.env_steps);
-    assert!(one.env_steps >= 5 * 40 * 30 * 20, "{}", one.env_steps);
+    // Its last iteration is cut where the steps left would not cover a selection of every
+    // candidate (4 · 200 episodes), and passes the budget by one controller's episodes at most.
+    let budget = 5 * 40 * 30 * 20;
+    assert!(one.env_steps > budget - 4 * 200 * 20 && one.env_steps <= budget + 30 * 20, "{}", one.env_steps);
     // The iteration's episodes and selection's are all there is: a step a step of an episode.
     let episodes: u64 = one.history.iter().map(|h| h.episodes).sum();
     assert_eq!(one.env_steps, episodes * 20);
@@ -190,10 +193,34 @@ fn a_stepped_optimiser_stops_on_its_budget_and_cuts_its_iteration() {
     let out = run_stepped::<RandomSearch>(&w, &config, None, |_| Flow::Continue).unwrap();
     assert_eq!(out.stop, StopReason::MaxEnvSteps);
     assert_eq!(out.history.len(), 2);
-    // The second iteration is cut after its first group of controllers (1024 episodes: 103
-    // controllers of 10 episodes).
+    // The second iteration is cut after its first group of controllers: one, the least that
+    // covers the step left.
     let first = 300 * 10 * 20;
     assert_eq!(out.history[0].env_steps, first);
-    assert_eq!(out.env_steps, first + 103 * 10 * 20);
+    assert_eq!(out.env_steps, first + 10 * 20);
     assert_eq!(out.eval_env_steps, 50 * 20);
+}
+
+#[test]
+fn the_controller_search_cuts_its_first_iteration_within_the_budget() {
+    // 200 controllers of 20 episodes (20 steps each): 80,000 steps an iteration, where the
+    // budget is 10,000. The first group is foreseen at the horizon, and the steps of the
+    // selection (2 candidates · 20 episodes) and of the memoryless stage's bar (16 blind
+    // policies · 20 episodes) are kept for them: 7 controllers, then the bar and the selection.
+    let w = tracking();
+    let config = ControllerConfig {
+        nodes: 2,
+        memory: ceworld::ce::controller::Memory::Nodes,
+        samples: 200,
+        episodes: 20,
+        candidates: 2,
+        select_episodes: 20,
+        eval_episodes: 10,
+        budget: Budget::steps(10_000),
+        threads: Some(1),
+        ..ControllerConfig::defaults_for(ValueKind::Sampled)
+    };
+    let r = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
+    assert_eq!((r.stop, r.history.len(), r.history[0].evaluated), (StopReason::MaxEnvSteps, 1, 7));
+    assert_eq!(r.env_steps, 10_000);
 }

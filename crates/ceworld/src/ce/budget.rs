@@ -33,10 +33,11 @@ pub struct Budget {
     pub time_limit: Option<f64>,
     /// Stop once learning has taken this many of the world's steps (the steps of the episodes
     /// sampled to learn, every run and every session together; the final evaluation's are
-    /// counted apart). An iteration that would cross it is cut after the batch of episodes that
-    /// reaches it (and so is a run's score between restarts), so the count passes it by about
-    /// one batch at most (the result says so: stop
-    /// `max_env_steps`). The count is the same for any thread or worker count. Refused on a
+    /// counted apart). An iteration that would cross it is cut where the steps left run out
+    /// ([`Groups`]; and so is a run's score between restarts), so the count passes it by one
+    /// batch at most (the result says so: stop `max_env_steps`); the controller search and the
+    /// model search keep the steps of their selection, and stop short of it where the steps
+    /// left no longer cover one. The count is the same for any thread or worker count. Refused on a
     /// world valued exactly (it takes no steps).
     #[cfg_attr(feature = "cli", arg(long))]
     pub max_env_steps: Option<u64>,
@@ -110,19 +111,88 @@ impl Budget {
             self.spent(steps).then_some(StopReason::MaxEnvSteps)
         }
     }
-
-    /// The episodes an iteration runs between two looks at the budget in steps, on a world that
-    /// runs `batch` episodes together: whole batches, about [`CUT_EPISODES`]; `None` without a
-    /// budget in steps (the iteration runs whole).
-    pub fn cut(&self, batch: usize) -> Option<usize> {
-        let batch = batch.max(1);
-        self.max_env_steps.map(|_| batch * (CUT_EPISODES / batch).max(1))
-    }
 }
 
-/// About how many episodes an iteration runs between two looks at a budget in steps: the most
-/// by which the count may pass the budget, on a world that runs its episodes one by one.
+/// About how many episodes an iteration runs between two looks at a budget in steps, where the
+/// steps left do not bound it first ([`Groups`]).
 pub const CUT_EPISODES: usize = 256;
+
+/// About how many episodes the controller searches value in one group of controllers, where the
+/// steps left do not bound it ([`Groups`]): between two groups the time limit and a budget in
+/// steps may cut an iteration.
+pub const GROUP_EPISODES: usize = 1024;
+
+/// The groups in which an iteration runs its episodes: `runs` runs of `episodes` episodes each
+/// (a controller's, or one episode of a policy), a group whole batches of the world (the least
+/// one holds: [`Groups::unit`]), at most `full` runs. Between two groups a spent budget cuts
+/// the iteration, and under a budget in steps a group holds no more runs than the steps left
+/// cover, foreseen from the mean length of the iteration's episodes so far (before any, the
+/// world's horizon): the count passes the budget by one batch at most, as foreseen. The first
+/// group always runs. The groups depend on the steps alone, not on threads or workers.
+pub struct Groups {
+    /// Runs in one batch of the world.
+    unit: usize,
+    /// Runs in a group where the steps left do not bound it.
+    full: usize,
+    episodes: usize,
+    horizon: usize,
+    runs: usize,
+    /// Runs handed out so far.
+    next: usize,
+    /// Steps the groups handed out took.
+    steps: u64,
+}
+
+impl Groups {
+    /// The groups of `runs` runs of `episodes` episodes on a world that runs `batch` episodes
+    /// together and whose episodes last `horizon` steps at most, `full` episodes a group at most
+    /// (whole batches, one at least).
+    pub fn new(runs: usize, episodes: usize, batch: usize, full: usize, horizon: usize) -> Groups {
+        let (batch, episodes) = (batch.max(1), episodes.max(1));
+        let unit = if episodes <= batch { batch / episodes } else { 1 };
+        let full = unit * full.div_ceil(unit * episodes).max(1);
+        Groups { unit, full, episodes, horizon, runs, next: 0, steps: 0 }
+    }
+
+    /// Runs in one batch of the world: the least a group holds.
+    pub fn unit(&self) -> usize {
+        self.unit
+    }
+
+    /// The runs of the next group, or `None` where the iteration is over: every run handed out,
+    /// or, after the first group, no step `left` to learn (`None`: no budget in steps).
+    pub fn next(&mut self, left: Option<u64>) -> Option<std::ops::Range<usize>> {
+        if self.next >= self.runs {
+            return None;
+        }
+        let mut size = self.full;
+        if let Some(left) = left {
+            if left == 0 && self.next > 0 {
+                return None;
+            }
+            // The runs the steps left cover, the last one partly.
+            let covered = left.div_ceil(self.foreseen(self.episodes).max(1));
+            let covered = usize::try_from(covered).unwrap_or(usize::MAX);
+            size = size.min(covered.div_ceil(self.unit).max(1).saturating_mul(self.unit));
+        }
+        let end = self.runs.min(self.next + size);
+        let group = self.next..end;
+        self.next = end;
+        Some(group)
+    }
+
+    /// Counts the steps the last group took.
+    pub fn took(&mut self, steps: u64) {
+        self.steps += steps;
+    }
+
+    /// The steps `episodes` episodes are foreseen to take: the mean length of the episodes run
+    /// so far, or the horizon before any.
+    pub fn foreseen(&self, episodes: usize) -> u64 {
+        let run = (self.next * self.episodes) as u64;
+        if run == 0 { (episodes * self.horizon) as u64 } else { (episodes as u64 * self.steps).div_ceil(run) }
+    }
+}
 
 /// A world whose steps are counted: every optimiser samples its episodes to learn through one,
 /// so that the count is the engine's (worlds in Python, Gymnasium's and a backend's workers
@@ -256,10 +326,46 @@ mod tests {
         let e = Budget::steps(10).check_sampled("exact values").unwrap_err().to_string();
         assert!(e.contains("max_env_steps") && e.contains("10 on exact values"), "{e}");
         assert!(Budget::seconds(1.0).check_sampled("exact values").is_ok());
-        assert_eq!((Budget::default().cut(1), Budget::steps(1).cut(1)), (None, Some(CUT_EPISODES)));
         let both = Budget { time_limit: Some(2.0), max_env_steps: Some(10) };
         let exhausted = [(1.0, 9), (2.0, 10), (1.0, 10)].map(|(t, n)| both.exhausted(t, n));
         assert_eq!(exhausted, [None, Some(StopReason::TimeLimit), Some(StopReason::MaxEnvSteps)]);
-        assert_eq!((Budget::steps(1).cut(100), Budget::steps(1).cut(1000)), (Some(200), Some(1000)));
+    }
+
+    /// Hands out every group of `groups`, each run taking `length` steps an episode, under a
+    /// budget of `budget` steps: the groups' sizes and the steps taken.
+    fn hand_out(mut groups: Groups, budget: Option<u64>, length: u64) -> (Vec<usize>, u64) {
+        let (mut sizes, mut steps) = (Vec::new(), 0);
+        while let Some(g) = groups.next(budget.map(|b| b.saturating_sub(steps))) {
+            let took = (g.len() * groups.episodes) as u64 * length;
+            sizes.push(g.len());
+            groups.took(took);
+            steps += took;
+        }
+        (sizes, steps)
+    }
+
+    #[test]
+    fn groups_are_whole_batches_and_the_steps_left_bound_them() {
+        // Controllers of 20 episodes on a world that runs its episodes one by one: groups of
+        // 1024 episodes (52 controllers) without a budget in steps.
+        let groups = || Groups::new(200, 20, 1, 1024, 50);
+        assert_eq!(hand_out(groups(), None, 10), (vec![52, 52, 52, 44], 200 * 20 * 10));
+        // 5,000 steps: the first group is foreseen at the horizon (50 steps an episode: 5
+        // controllers), the next at the mean length (10: 20 controllers cover the 4,000 steps
+        // left).
+        assert_eq!(hand_out(groups(), Some(5000), 10), (vec![5, 20], 5000));
+        // A budget spent before the iteration: its first group is one batch.
+        assert_eq!(hand_out(groups(), Some(0), 10), (vec![1], 200));
+        // Episodes 7 steps long: the last group covers the steps left partly (the count passes
+        // the budget by less than a batch).
+        let (sizes, steps) = hand_out(groups(), Some(5000), 7);
+        assert!((5000..5000 + 20 * 7).contains(&steps), "{sizes:?} {steps}");
+        // A world that runs 64 episodes together: a batch is 3 controllers, and every group is
+        // whole batches.
+        let (sizes, _) = hand_out(Groups::new(200, 20, 64, 1024, 50), Some(5000), 7);
+        assert!(sizes[..sizes.len() - 1].iter().all(|s| s % 3 == 0), "{sizes:?}");
+        // Episodes one by one (episode CE), on a world of batch 100: 256 episodes are 300.
+        let (sizes, _) = hand_out(Groups::new(1000, 1, 100, CUT_EPISODES, 50), None, 10);
+        assert_eq!(sizes, vec![300, 300, 300, 100]);
     }
 }

@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::ce::budget::Metered;
+use crate::ce::budget::{CUT_EPISODES, Groups, Metered};
 use crate::ce::checkpoint::{CeRun, FinishedRun, RunState};
 use crate::ce::config::{CeConfig, MemoryUpdate};
 use crate::ce::counting::count_episode;
@@ -398,9 +398,9 @@ impl Buffers {
 }
 
 /// Runs the iteration's episodes into `rewards` (and `records`, where kept, with the numbers of
-/// one episode's record): all of them, or,
-/// under a budget in steps, whole cuts ([`crate::ce::budget::Budget::cut`]) until the budget is
-/// spent (the first always). The episodes run: the first ones, in order.
+/// one episode's record): all of them, or, under a budget in steps, in groups of whole batches
+/// until the budget is spent ([`Groups`]: the first always). The episodes run: the first ones,
+/// in order.
 fn sample<E: Episodes + ?Sized>(
     world: &Metered<'_, E>,
     policy: &Hhmm,
@@ -410,18 +410,20 @@ fn sample<E: Episodes + ?Sized>(
     stride: usize,
     config: &CeConfig,
 ) -> Result<usize> {
-    let Some(cut) = config.budget.cut(world.batch()) else {
+    if config.budget.max_env_steps.is_none() {
         world.run(policy, streams, 0, Batch { values: rewards, records })?;
         return Ok(rewards.len());
-    };
-    let (n, mut start) = (rewards.len(), 0);
-    while start < n && (start == 0 || !config.budget.spent(world.steps())) {
-        let end = n.min(start + cut);
-        let records = records.as_mut().map(|(r, l)| (&mut r[start * stride..end * stride], &mut l[start..end]));
-        world.run(policy, streams, start, Batch { values: &mut rewards[start..end], records })?;
-        start = end;
     }
-    Ok(start)
+    let (n, horizon) = (rewards.len(), world.shape().horizon);
+    let mut groups = Groups::new(n, 1, world.batch(), CUT_EPISODES, horizon);
+    let mut end = 0;
+    while let Some(group) = groups.next(config.budget.left(world.steps())) {
+        let (start, stop) = (group.start, group.end);
+        let records = records.as_mut().map(|(r, l)| (&mut r[start * stride..stop * stride], &mut l[start..stop]));
+        groups.took(world.run(policy, streams, start, Batch { values: &mut rewards[start..stop], records })?);
+        end = stop;
+    }
+    Ok(end)
 }
 
 /// Where the episodes are sampled elsewhere, what counts the elite there; refuses the

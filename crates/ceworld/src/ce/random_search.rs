@@ -7,6 +7,7 @@
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
+use crate::ce::budget::{GROUP_EPISODES, Groups};
 use crate::ce::record::IterationRecord;
 use crate::ce::stepped::{Rules, Stepped};
 use crate::episodes::{Episodes, Streams};
@@ -104,16 +105,14 @@ impl Stepped for RandomSearch {
             })
             .collect();
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
-        // In groups of whole batches of episodes, so that a spent budget cuts the iteration
-        // between two (the first always counts): its best is of the controllers valued.
-        let group = crate::ce::controller::group_size(world.batch(), c.episodes);
+        // In groups of whole batches of episodes, so that the budget cuts the iteration between
+        // two (the first always counts): its best is of the controllers valued.
+        let mut groups = Groups::new(c.samples, c.episodes, world.batch(), GROUP_EPISODES, shape.horizon);
         let mut means = Vec::with_capacity(c.samples);
-        for chunk in controllers.chunks(group) {
-            if !means.is_empty() && left() == Some(0) {
-                break;
-            }
+        while let Some(group) = groups.next(left()) {
+            let chunk = &controllers[group];
             let mut values = vec![0.0; chunk.len() * c.episodes];
-            world.run_controllers(chunk, streams, c.episodes, &mut values)?;
+            groups.took(world.run_controllers(chunk, streams, c.episodes, &mut values)?);
             means.extend(values.chunks(c.episodes).map(|v| v.iter().sum::<f64>() / c.episodes as f64));
         }
         let (k, top) =

@@ -29,8 +29,7 @@ use crate::ce::budget::Metered;
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, Interrupt, thread_pool};
-use crate::episodes::credit::StepCredit;
-use crate::episodes::{Episodes, Remote, Streams};
+use crate::episodes::{Episodes, Remote};
 use crate::error::Result;
 use crate::evaluate::mean;
 pub use crate::policy::controller::Controller;
@@ -42,7 +41,7 @@ pub use config::{
 use laws::Laws;
 use memory::ALTERNATE_SHARES;
 pub use outcome::{ControllerIteration, ControllerOutcome};
-use selection::{Scores, kept_values};
+use selection::{Scores, Valuation, kept_values};
 use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};
 
@@ -156,6 +155,8 @@ struct SearchIterations<'a, 's> {
     share: Option<f64>,
     rules: crate::ce::stopping::StopRules,
     clock: Clock,
+    /// What cut the last iteration, if anything.
+    cut: Option<StopReason>,
 }
 
 impl Iterations for SearchIterations<'_, '_> {
@@ -181,7 +182,8 @@ impl Iterations for SearchIterations<'_, '_> {
             std::time::Instant::now() + std::time::Duration::from_secs_f64((t - self.clock.seconds()).max(0.0))
         });
         let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
-        let drawn = search.value(&state.laws, self.seed, iteration, &over_time)?;
+        let drawn = search.value(&state.laws, self.seed, iteration, &over_time, state.best.is_some())?;
+        self.cut = drawn.cut;
         search.stage_bar(state)?;
         let record = search.learn(state, &drawn, self.restart, self.clock.seconds());
         state.history.push(record.clone());
@@ -195,13 +197,13 @@ impl Iterations for SearchIterations<'_, '_> {
     fn stop(&self, state: &SearchState, record: &ControllerIteration, reserve: f64) -> Option<StopReason> {
         let seconds = record.record.seconds;
         let over_share = self.share.is_some_and(|t| seconds >= t);
-        // An iteration cut valued fewer controllers than drawn: by the time limit here (one the
-        // budget in steps cut has stopped for it already).
-        let cut = record.evaluated < self.search.config.samples;
+        // An iteration cut valued fewer controllers than drawn, by the time limit or the budget in
+        // steps.
         let (value, since) = (record.best_so_far, state.since_progress);
         self.rules
             .check(state.history.len(), value, since, seconds + reserve)
-            .or((cut || over_share).then_some(StopReason::TimeLimit))
+            .or(self.cut)
+            .or(over_share.then_some(StopReason::TimeLimit))
     }
 
     fn closing(&self, record: &ControllerIteration) -> Option<(usize, usize)> {
@@ -268,15 +270,6 @@ impl<O: FnMut(&Observed<'_, ControllerIteration>) -> Flow> Runs for SearchRuns<'
     }
 }
 
-/// Controllers valued at once on sampled values with `episodes` each, where a world runs
-/// `slice` episodes together ([`Episodes::batch`]): whole batches of about `GROUP_EPISODES`
-/// episodes, between which the time limit and a budget in steps may cut an iteration.
-pub(crate) fn group_size(slice: usize, episodes: usize) -> usize {
-    const GROUP_EPISODES: usize = 1024;
-    let per_batch = if episodes <= slice { (slice / episodes).max(1) } else { 1 };
-    per_batch * GROUP_EPISODES.div_ceil(per_batch * episodes).max(1)
-}
-
 /// How a search values its controllers.
 enum Values<'a> {
     Exact(ControllerValue<'a>),
@@ -321,22 +314,23 @@ impl Search<'_> {
 
     /// The iteration's controllers, drawn from `laws`, with their values: exact (the controllers
     /// not yet evaluated when the time limit passes are left out, the first always counts), or
-    /// the mean of `K` episodes on the iteration's common streams.
+    /// the mean of `K` episodes on the iteration's common streams (those left out when the time
+    /// limit passes or the budget in steps is spent, the first group always counts).
     fn draw_and_value(
         &self,
         laws: &Laws,
         seed: u64,
         iteration: usize,
         over_time: &(dyn Fn() -> bool + Sync),
-    ) -> Result<(Vec<Option<Scored>>, Option<StepCredit>)> {
+    ) -> Result<Valuation> {
         let samples = self.config.samples;
         let draw = |k: usize| match &self.start {
             Some(start) if iteration == 0 && k == 0 => start.clone(),
             _ => laws.draw(&mut stream(seed, Purpose::Optimise, iteration as u64, k as u64)),
         };
         self.pool.install(|| match &self.values {
-            Values::Exact(exact) => Ok((
-                (0..samples)
+            Values::Exact(exact) => {
+                let drawn: Vec<Option<Scored>> = (0..samples)
                     .into_par_iter()
                     .map_init(Scratch::default, |scratch, k| {
                         if k > 0 && over_time() {
@@ -345,53 +339,22 @@ impl Search<'_> {
                         let c = draw(k);
                         Some((self.seen.value(&c, || exact.value(&c, scratch)), c))
                     })
-                    .collect(),
-                None,
-            )),
+                    .collect();
+                let cut = drawn.iter().any(Option::is_none).then_some(StopReason::TimeLimit);
+                Ok(Valuation { drawn, credit: None, groups: None, cut })
+            }
             Values::ExactElsewhere(_, remote) => {
                 // One batch: the time limit is checked between iterations only.
                 let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
                 let values = remote.exact_values(&controllers, self.config.tolerance)?;
-                Ok((values.into_iter().zip(controllers).map(Some).collect(), None))
+                let drawn = values.into_iter().zip(controllers).map(Some).collect();
+                Ok(Valuation { drawn, credit: None, groups: None, cut: None })
             }
             Values::Sampled(world) => {
                 let controllers: Vec<Controller> = (0..samples).into_par_iter().map(draw).collect();
-                let k = self.config.episodes;
-                let streams = Streams { seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
-                // In groups of whole batches, so that the time limit can cut the iteration
-                // between two (the first always counts) and the values are the same as in one.
-                let group = if world.remote().is_some() { samples } else { group_size(world.batch(), k) };
-                let mut valued = Vec::with_capacity(samples);
-                let rows = StepCredit::rows_of(&controllers[0]);
-                let mut credit = (self.config.credit == Credit::Steps).then(|| StepCredit::new(0, rows));
-                for (g, chunk) in controllers.chunks(group).enumerate() {
-                    if g > 0 && (over_time() || self.spent()) {
-                        break;
-                    }
-                    let mut values = vec![0.0; chunk.len() * k];
-                    if let Some(all) = credit.as_mut() {
-                        let mut part = StepCredit::new(chunk.len(), rows);
-                        if world.run_controllers_credited(chunk, streams, k, &mut values, &mut part)?.1 {
-                            all.append(part);
-                        } else {
-                            credit = None;
-                        }
-                    } else {
-                        world.run_controllers(chunk, streams, k, &mut values)?;
-                    }
-                    self.ran(values.len());
-                    let means = values.chunks(k).map(|v| mean(v.iter().copied()));
-                    valued.extend(means.zip(chunk.iter().cloned()).map(Some));
-                }
-                valued.resize(samples, None);
-                Ok((valued, credit))
+                self.sampled_values(*world, &controllers, laws, seed, iteration, over_time)
             }
         })
-    }
-
-    /// Whether learning has spent the budget in steps.
-    fn spent(&self) -> bool {
-        self.config.budget.spent(self.meter.steps())
     }
 
     /// Counts `episodes` of the world run for the next record.
@@ -462,8 +425,15 @@ impl Search<'_> {
         let share = ALTERNATE_SHARES.get(restart).zip(config.budget.time_limit.filter(|_| shared)).map(|(s, t)| s * t);
         // The iterations of the runs before this one (for the callback's count).
         let earlier: usize = saver.state.finished.iter().map(|r| r.history.len()).sum();
-        let mut it =
-            SearchIterations { search: self, seed, restart, share, rules: config.stop_rules(), clock: saver.clock() };
+        let mut it = SearchIterations {
+            search: self,
+            seed,
+            restart,
+            share,
+            rules: config.stop_rules(),
+            clock: saver.clock(),
+            cut: None,
+        };
         let (budget, meter, interrupt, reserve) = (&config.budget, self.meter, self.interrupt(), self.reserve());
         let watch = Watch { run: restart, earlier, budget, meter, interrupt, reserve };
         let Ended { run: state, stop, reserve } = iterate_run(&mut it, state, saver, observe, &watch)?;
@@ -476,14 +446,20 @@ impl Search<'_> {
 
     /// The iteration's controllers drawn from `laws` and valued, best first, with the candidate
     /// for the best so far.
-    fn value(&self, laws: &Laws, seed: u64, iteration: usize, over_time: &(dyn Fn() -> bool + Sync)) -> Result<Draws> {
-        let (drawn, credit) = self.draw_and_value(laws, seed, iteration, over_time)?;
-        let cut = drawn.iter().any(Option::is_none);
+    fn value(
+        &self,
+        laws: &Laws,
+        seed: u64,
+        iteration: usize,
+        over_time: &(dyn Fn() -> bool + Sync),
+        has_best: bool,
+    ) -> Result<Draws> {
+        let Valuation { drawn, credit, groups, cut } = self.draw_and_value(laws, seed, iteration, over_time)?;
         let drawn: Vec<(f64, Controller)> = drawn.into_iter().flatten().collect();
         let mut order: Vec<usize> = (0..drawn.len()).collect();
         // Highest value first; equal values keep their draw order (deterministic).
         order.sort_by(|&i, &j| drawn[j].0.total_cmp(&drawn[i].0).then(i.cmp(&j)));
-        let candidate = self.candidate(&drawn, &order)?;
+        let candidate = self.candidate(&drawn, &order, groups.as_ref(), has_best)?;
         // Each decision row's best decision by the credit of its steps, where there is one.
         let best =
             credit.map(|credit| credit.best(drawn.iter().map(|(_, c)| c.decisions()).enumerate(), self.n_actions));
@@ -503,8 +479,10 @@ impl Search<'_> {
         // lucky early draw must not stop a search whose laws are still climbing.
         let mut progress = threshold > best_threshold + config.tolerance;
         best_threshold = best_threshold.max(threshold);
-        if state.best.as_ref().is_none_or(|(b, _, _)| candidate.0 > *b + config.tolerance) {
-            state.best = Some((candidate.0, drawn[candidate.1].1.clone(), *iteration));
+        if let Some((value, k)) = *candidate
+            && state.best.as_ref().is_none_or(|(b, _, _)| value > *b + config.tolerance)
+        {
+            state.best = Some((value, drawn[k].1.clone(), *iteration));
             progress = true;
         }
         state.since_progress = if progress { 0 } else { state.since_progress + 1 };
@@ -523,7 +501,7 @@ impl Search<'_> {
         // there.
         let above = order[..elite_size].iter().take_while(|&&i| drawn[i].0 > threshold).count();
         let kept = if above > 0 { above } else { elite_size };
-        if !cut {
+        if cut.is_none() {
             // A cut iteration's elite would favour whichever controllers came first.
             let elite: Vec<&Controller> = order[..kept].iter().map(|&i| &drawn[i].1).collect();
             state.laws.refit(&elite, best.as_deref(), config.smoothing);
@@ -588,12 +566,12 @@ struct Draws {
     iteration: usize,
     /// The controllers valued, in draw order.
     drawn: Vec<(f64, Controller)>,
-    /// Whether the time limit left some out.
-    cut: bool,
+    /// What left some out, if anything: the time limit or the budget in steps.
+    cut: Option<StopReason>,
     /// Indices into `drawn`, highest value first.
     order: Vec<usize>,
-    /// (value, index in `drawn`).
-    candidate: (f64, usize),
+    /// (value, index in `drawn`); none where the budget in steps left no steps to select.
+    candidate: Option<(f64, usize)>,
     /// Each decision row's best decision by the credit of its steps (sampled values with
     /// [`Credit::Steps`] on a world whose value sums its steps' rewards).
     best: Option<Vec<Option<u32>>>,

@@ -1,12 +1,15 @@
-//! How a search on sampled values chooses and reports (model §8): each iteration's candidates
-//! scored on the fixed selection episodes (kept by their digest, [`Scores`], and by
-//! checkpoints), and the returned controller's evaluation on fresh episodes, inside the time
-//! limit.
+//! How a search on sampled values values, chooses and reports (model §8): each iteration's
+//! controllers valued in groups ([`Groups`]), its candidates scored on the fixed selection episodes
+//! (kept by their digest, [`Scores`], and by checkpoints), and the returned controller's evaluation
+//! on fresh episodes, inside the time limit.
 
 use super::checkpoint::{ControllerCheckpoint, Known};
+use super::laws::Laws;
 use super::outcome::ControllerOutcome;
-use super::{Search, Values};
+use super::{Credit, Scored, Search, Values};
+use crate::ce::budget::{GROUP_EPISODES, Groups};
 use crate::ce::stopping::StopReason;
+use crate::episodes::credit::StepCredit;
 use crate::episodes::{Episodes, Streams};
 use crate::error::Result;
 use crate::evaluate::{final_evaluation, mean};
@@ -41,12 +44,82 @@ impl Search<'_> {
         Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
     }
 
+    /// The mean value of `K` episodes of each of `controllers` on iteration `iteration`'s
+    /// common streams, in groups of whole batches of the world, so that the time limit and the
+    /// budget in steps can cut the iteration between two (the first always counts; those left
+    /// out are `None`) and the values are the same as in one. Under a budget in steps the steps
+    /// of the selection that follows (and of the stage's bar, where the iteration of `laws`
+    /// computes it) are kept for them.
+    pub(super) fn sampled_values(
+        &self,
+        world: &dyn Episodes,
+        controllers: &[Controller],
+        laws: &Laws,
+        seed: u64,
+        iteration: usize,
+        over_time: &(dyn Fn() -> bool + Sync),
+    ) -> Result<Valuation> {
+        let samples = controllers.len();
+        let k = self.config.episodes;
+        let streams = Streams { seed, purpose: Purpose::Controllers, iteration: iteration as u64 };
+        let (batch, horizon) = (world.batch(), world.shape().horizon);
+        let full = if world.remote().is_some() { samples * k } else { GROUP_EPISODES };
+        let mut groups = Groups::new(samples, k, batch, full, horizon);
+        let selection = self.config.candidates * self.config.select_episodes + self.bar_episodes(laws);
+        let mut valued = Vec::with_capacity(samples);
+        let rows = StepCredit::rows_of(&controllers[0]);
+        let mut credit = (self.config.credit == Credit::Steps).then(|| StepCredit::new(0, rows));
+        let cut = loop {
+            let left = self.left().map(|l| l.saturating_sub(groups.foreseen(selection)));
+            let Some(group) = groups.next(left) else {
+                break (valued.len() < samples).then_some(StopReason::MaxEnvSteps);
+            };
+            if group.start > 0 && over_time() {
+                break Some(StopReason::TimeLimit);
+            }
+            let chunk = &controllers[group];
+            let mut values = vec![0.0; chunk.len() * k];
+            let steps = if let Some(all) = credit.as_mut() {
+                let mut part = StepCredit::new(chunk.len(), rows);
+                let (steps, credited) = world.run_controllers_credited(chunk, streams, k, &mut values, &mut part)?;
+                if credited {
+                    all.append(part);
+                } else {
+                    credit = None;
+                }
+                steps
+            } else {
+                world.run_controllers(chunk, streams, k, &mut values)?
+            };
+            groups.took(steps);
+            self.ran(values.len());
+            let means = values.chunks(k).map(|v| mean(v.iter().copied()));
+            valued.extend(means.zip(chunk.iter().cloned()).map(Some));
+        };
+        valued.resize(samples, None);
+        Ok(Valuation { drawn: valued, credit, groups: Some(groups), cut })
+    }
+
+    /// The steps the budget in steps leaves to learn (`None` without one).
+    pub(super) fn left(&self) -> Option<u64> {
+        self.config.budget.left(self.meter.steps())
+    }
+
     /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
     /// controller on exact values; on sampled ones the best on the selection episodes of its best
-    /// `candidates` distinct controllers (`order`: best first).
-    pub(super) fn candidate(&self, drawn: &[(f64, Controller)], order: &[usize]) -> Result<(f64, usize)> {
+    /// `candidates` distinct controllers (`order`: best first). Where a best so far exists
+    /// (`has_best`) and the steps the budget leaves do not cover the selection episodes of the
+    /// candidates not yet scored, as `groups` foresee them, none: the selection runs whole or not
+    /// at all (fewer episodes would let a candidate replace the best on a lucky few).
+    pub(super) fn candidate(
+        &self,
+        drawn: &[(f64, Controller)],
+        order: &[usize],
+        groups: Option<&Groups>,
+        has_best: bool,
+    ) -> Result<Option<(f64, usize)>> {
         if let Values::Exact(_) | Values::ExactElsewhere(..) = self.values {
-            return Ok((drawn[order[0]].0, order[0]));
+            return Ok(Some((drawn[order[0]].0, order[0])));
         }
         let mut few: Vec<usize> = Vec::new();
         for &i in order {
@@ -58,9 +131,15 @@ impl Search<'_> {
             }
         }
         let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
+        if let (Some(left), Some(groups), true) = (self.left(), groups, has_best) {
+            let new = controllers.iter().filter(|c| self.scores.get(&digest(c)).is_none()).count();
+            if groups.foreseen(new * self.config.select_episodes) > left {
+                return Ok(None);
+            }
+        }
         let scores = self.select_scores(&controllers)?;
         let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
-        Ok((scores[b], few[b]))
+        Ok(Some((scores[b], few[b])))
     }
 
     /// Evaluates the outcome of a search on sampled values on fresh episodes (its value is
@@ -181,4 +260,15 @@ fn digest(c: &Controller) -> [u8; 16] {
     let mut out = [0u8; 16];
     out.copy_from_slice(&h.finalize()[..16]);
     out
+}
+
+/// An iteration's controllers with their values, in draw order (`None`: left out), as valued.
+pub(super) struct Valuation {
+    pub(super) drawn: Vec<Option<Scored>>,
+    /// Each decision row's steps' credit, where counted.
+    pub(super) credit: Option<StepCredit>,
+    /// The groups the controllers were valued in (sampled values).
+    pub(super) groups: Option<Groups>,
+    /// What left some out, if anything.
+    pub(super) cut: Option<StopReason>,
 }

@@ -23,10 +23,22 @@ impl Search<'_> {
     /// In a memoryless stage, computes what its best policy must beat ([`Search::bar`]), so
     /// that the iteration that ends the stage has it.
     pub(super) fn stage_bar(&self, state: &SearchState) -> Result<()> {
-        if state.laws.nodes() > 1 || self.start.is_some() || self.config.memoryless_patience == 0 {
+        if !self.staged(&state.laws) {
             return Ok(());
         }
         self.bar().map(|_| ())
+    }
+
+    /// Whether an iteration of `laws` is in a memoryless stage.
+    fn staged(&self, laws: &Laws) -> bool {
+        laws.nodes() == 1 && self.start.is_none() && self.config.memoryless_patience > 0
+    }
+
+    /// The episodes of the world an iteration of `laws` runs for the stage's bar: the selection
+    /// episodes of every blind policy the first time, none after.
+    pub(super) fn bar_episodes(&self, laws: &Laws) -> usize {
+        let first = self.staged(laws) && self.bar.get().is_none();
+        if first { self.n_actions * self.config.select_episodes } else { 0 }
     }
 
     /// What the best memoryless policy must beat to start the memory around it: every blind
