@@ -223,4 +223,15 @@ fn the_controller_search_cuts_its_first_iteration_within_the_budget() {
     let r = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
     assert_eq!((r.stop, r.history.len(), r.history[0].evaluated), (StopReason::MaxEnvSteps, 1, 7));
     assert_eq!(r.env_steps, 10_000);
+    // 3,000 steps cover neither: one controller (400 steps), its selection (400: no best yet),
+    // and the bar on the 6 episodes each blind policy the 2,200 steps left cover (1,920).
+    let config = ControllerConfig { budget: Budget::steps(3000), ..config };
+    let r = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
+    assert_eq!((r.stop, r.history.len(), r.history[0].evaluated), (StopReason::MaxEnvSteps, 1, 1));
+    assert_eq!(r.env_steps, 400 + 400 + 16 * 6 * 20);
+    // 1,000 steps and selections of 40 episodes: the selection (no best yet) on the 30 episodes
+    // the 600 steps left cover, and the bar on one episode each (the least).
+    let config = ControllerConfig { budget: Budget::steps(1000), select_episodes: 40, ..config };
+    let r = optimize_controller(Valued::Sampled(&w), &config, |_| Flow::Continue).unwrap();
+    assert_eq!(r.env_steps, 400 + 30 * 20 + 16 * 20);
 }

@@ -186,6 +186,14 @@ impl Groups {
         self.steps += steps;
     }
 
+    /// The episodes of each of `runs` runs that `left` steps cover, as foreseen
+    /// ([`Groups::foreseen`]): `most` at most, one at least; `most` without a budget in steps.
+    pub fn covered(&self, left: Option<u64>, runs: usize, most: usize) -> usize {
+        let Some(left) = left else { return most };
+        let each = self.foreseen(runs).max(1);
+        usize::try_from(left / each).unwrap_or(usize::MAX).min(most).max(1)
+    }
+
     /// The steps `episodes` episodes are foreseen to take: the mean length of the episodes run
     /// so far, or the horizon before any.
     pub fn foreseen(&self, episodes: usize) -> u64 {
@@ -367,5 +375,8 @@ mod tests {
         // Episodes one by one (episode CE), on a world of batch 100: 256 episodes are 300.
         let (sizes, _) = hand_out(Groups::new(1000, 1, 100, CUT_EPISODES, 50), None, 10);
         assert_eq!(sizes, vec![300, 300, 300, 100]);
+        // The episodes each of 4 runs may have: 50 steps foreseen an episode before any ran.
+        let g = Groups::new(10, 20, 1, 1024, 50);
+        assert_eq!([g.covered(None, 4, 200), g.covered(Some(2000), 4, 200), g.covered(Some(10), 4, 200)], [200, 10, 1]);
     }
 }

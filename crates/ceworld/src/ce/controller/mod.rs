@@ -25,7 +25,7 @@ pub mod value;
 
 use rayon::prelude::*;
 
-use crate::ce::budget::Metered;
+use crate::ce::budget::{Groups, Metered};
 use crate::ce::record::IterationRecord;
 use crate::ce::stopping::{Observed, StopReason};
 use crate::control::{Flow, Interrupt, thread_pool};
@@ -184,7 +184,7 @@ impl Iterations for SearchIterations<'_, '_> {
         let over_time = || deadline.is_some_and(|d| std::time::Instant::now() >= d);
         let drawn = search.value(&state.laws, self.seed, iteration, &over_time, state.best.is_some())?;
         self.cut = drawn.cut;
-        search.stage_bar(state)?;
+        search.stage_bar(state, drawn.groups.as_ref())?;
         let record = search.learn(state, &drawn, self.restart, self.clock.seconds());
         state.history.push(record.clone());
         Ok(record)
@@ -463,14 +463,14 @@ impl Search<'_> {
         // Each decision row's best decision by the credit of its steps, where there is one.
         let best =
             credit.map(|credit| credit.best(drawn.iter().map(|(_, c)| c.decisions()).enumerate(), self.n_actions));
-        Ok(Draws { iteration, drawn, cut, order, candidate, best })
+        Ok(Draws { iteration, drawn, cut, groups, order, candidate, best })
     }
 
     /// Learns from an iteration's controllers: the best so far, progress, the laws refitted to
     /// the elite, an escape where patience ran out; the iteration's record.
     fn learn(&self, state: &mut SearchState, drawn: &Draws, restart: usize, seconds: f64) -> ControllerIteration {
         let config = self.config;
-        let Draws { iteration, drawn, cut, order, candidate, best } = drawn;
+        let Draws { iteration, drawn, cut, order, candidate, best, .. } = drawn;
         let elite_size = config.elite_count().min(drawn.len());
         let top = order[0];
         let threshold = drawn[order[elite_size - 1]].0;
@@ -568,6 +568,8 @@ struct Draws {
     drawn: Vec<(f64, Controller)>,
     /// What left some out, if anything: the time limit or the budget in steps.
     cut: Option<StopReason>,
+    /// The groups the controllers were valued in (sampled values).
+    groups: Option<Groups>,
     /// Indices into `drawn`, highest value first.
     order: Vec<usize>,
     /// (value, index in `drawn`); none where the budget in steps left no steps to select.

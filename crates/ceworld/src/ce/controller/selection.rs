@@ -17,12 +17,12 @@ use crate::policy::controller::Controller;
 use crate::rng::Purpose;
 
 impl Search<'_> {
-    /// The mean value of each of `controllers` on the selection episodes (shared by every
-    /// iteration and run: streams `(seed, Select, 0, k)`). A controller scored before is not run
-    /// again: its score depends on it alone.
-    pub(super) fn select_scores(&self, controllers: &[Controller]) -> Result<Vec<f64>> {
+    /// The mean value of each of `controllers` on the first `m` selection episodes (shared by
+    /// every iteration and run: streams `(seed, Select, 0, k)`). A controller scored before is
+    /// not run again: its score depends on it alone (kept where `m` is all of them).
+    pub(super) fn select_scores(&self, controllers: &[Controller], m: usize) -> Result<Vec<f64>> {
         let Values::Sampled(world) = &self.values else { unreachable!("exact values need no selection") };
-        let m = self.config.select_episodes;
+        let whole = m == self.config.select_episodes;
         let keys: Vec<[u8; 16]> = controllers.iter().map(digest).collect();
         let scores: Vec<Option<f64>> = keys.iter().map(|k| self.scores.get(k)).collect();
         let (new, new_keys): (Vec<Controller>, Vec<[u8; 16]>) = controllers
@@ -38,7 +38,9 @@ impl Search<'_> {
         self.ran(values.len());
         let mut fresh = new_keys.iter().zip(values.chunks(m)).map(|(k, v)| {
             let score = mean(v.iter().copied());
-            self.scores.keep(*k, score);
+            if whole {
+                self.scores.keep(*k, score);
+            }
             score
         });
         Ok(scores.into_iter().map(|s| s.or_else(|| fresh.next()).expect("one score per new controller")).collect())
@@ -107,10 +109,10 @@ impl Search<'_> {
 
     /// The iteration's candidate for the best so far, as (value, index in `drawn`): its best
     /// controller on exact values; on sampled ones the best on the selection episodes of its best
-    /// `candidates` distinct controllers (`order`: best first). Where a best so far exists
-    /// (`has_best`) and the steps the budget leaves do not cover the selection episodes of the
-    /// candidates not yet scored, as `groups` foresee them, none: the selection runs whole or not
-    /// at all (fewer episodes would let a candidate replace the best on a lucky few).
+    /// `candidates` distinct controllers (`order`: best first). Under a budget in steps, where
+    /// the steps left do not cover the selection episodes of the candidates not yet scored, as
+    /// `groups` foresee them: none once a best so far exists (`has_best`; fewer episodes would
+    /// let a candidate replace it on a lucky few), before one the episodes they cover.
     pub(super) fn candidate(
         &self,
         drawn: &[(f64, Controller)],
@@ -131,13 +133,17 @@ impl Search<'_> {
             }
         }
         let controllers: Vec<Controller> = few.iter().map(|&i| drawn[i].1.clone()).collect();
-        if let (Some(left), Some(groups), true) = (self.left(), groups, has_best) {
+        let mut m = self.config.select_episodes;
+        if let (Some(left), Some(groups)) = (self.left(), groups) {
             let new = controllers.iter().filter(|c| self.scores.get(&digest(c)).is_none()).count();
-            if groups.foreseen(new * self.config.select_episodes) > left {
-                return Ok(None);
+            if groups.foreseen(new * m) > left {
+                if has_best {
+                    return Ok(None);
+                }
+                m = groups.covered(Some(left), new, m);
             }
         }
-        let scores = self.select_scores(&controllers)?;
+        let scores = self.select_scores(&controllers, m)?;
         let b = (0..few.len()).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
         Ok(Some((scores[b], few[b])))
     }

@@ -3,6 +3,7 @@
 
 use super::laws::Laws;
 use super::{Controller, ControllerConfig, ControllerValue, Scratch, Search, Values};
+use crate::ce::budget::Groups;
 use crate::episodes::Streams;
 use crate::error::Result;
 use crate::evaluate::Evaluation;
@@ -21,12 +22,15 @@ impl Search<'_> {
     }
 
     /// In a memoryless stage, computes what its best policy must beat ([`Search::bar`]), so
-    /// that the iteration that ends the stage has it.
-    pub(super) fn stage_bar(&self, state: &SearchState) -> Result<()> {
-        if !self.staged(&state.laws) {
+    /// that the iteration that ends the stage has it: on sampled values, on the selection
+    /// episodes the budget in steps leaves, as the iteration's `groups` foresee them (all of
+    /// them without one, one at least).
+    pub(super) fn stage_bar(&self, state: &SearchState, groups: Option<&Groups>) -> Result<()> {
+        if !self.staged(&state.laws) || self.bar.get().is_some() {
             return Ok(());
         }
-        self.bar().map(|_| ())
+        let m = self.config.select_episodes;
+        self.bar_and_noise_on(groups.map_or(m, |g| g.covered(self.left(), self.n_actions, m))).map(|_| ())
     }
 
     /// Whether an iteration of `laws` is in a memoryless stage.
@@ -58,6 +62,11 @@ impl Search<'_> {
     }
 
     fn bar_and_noise(&self) -> Result<(f64, f64)> {
+        self.bar_and_noise_on(self.config.select_episodes)
+    }
+
+    /// The bar and the noise, on `m` selection episodes where sampled and not yet computed.
+    fn bar_and_noise_on(&self, m: usize) -> Result<(f64, f64)> {
         if let Some(&known) = self.bar.get() {
             return Ok(known);
         }
@@ -74,7 +83,6 @@ impl Search<'_> {
                 remote.exact_values(&blind, tolerance)?.into_iter().map(|v| (v + tolerance, 0.0)).collect()
             }
             Values::Sampled(world) => {
-                let m = self.config.select_episodes;
                 let mut values = vec![0.0; blind.len() * m];
                 let streams = Streams { seed: self.config.seed, purpose: Purpose::Select, iteration: 0 };
                 self.pool.install(|| world.run_controllers(&blind, streams, m, &mut values))?;
