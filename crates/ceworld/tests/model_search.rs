@@ -285,3 +285,12 @@ fn a_world_whose_value_is_not_the_sum_of_its_rewards_is_refused() {
     assert!(matches!(e, Error::InvalidArgument { ref name, .. } if name == "world"), "{e}");
     assert!(e.to_string().contains("sum of its steps' rewards"), "{e}");
 }
+
+#[test]
+fn a_margin_out_of_its_domain_is_refused() {
+    for margin in [-1.0, f64::NAN, f64::INFINITY] {
+        let config = ModelSearchConfig { margin, ..config(2000, 1) };
+        let e = run_stepped::<ModelSearch>(&world(false), &config, None, |_| Flow::Continue).unwrap_err();
+        assert!(matches!(e, Error::InvalidArgument { ref name, .. } if name == "margin"), "{e}");
+    }
+}

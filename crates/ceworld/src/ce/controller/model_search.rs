@@ -19,10 +19,12 @@
 //! credited by the greedy explorers' steps (model §8's credit within episodes), in the first
 //! iteration the uniform policy, and the best so far are valued on the iteration's selection
 //! episodes, whose steps are kept as the explorers' are; the best of the others replaces the best
-//! so far where it beats it on them, else they add to its value. A stepped optimiser (`ceworld run
+//! so far where it beats it on them by more than their noise ([`incumbent`]), else they add to
+//! its value. A stepped optimiser (`ceworld run
 //! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 mod explorers;
+mod incumbent;
 mod tally;
 
 use rayon::prelude::*;
@@ -44,6 +46,8 @@ use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
 use explorers::{credited_best, explorer};
+pub use incumbent::Incumbent;
+use incumbent::replaces;
 use tally::Tally;
 
 /// The settings of the search of memories on the model of every step.
@@ -83,6 +87,10 @@ pub struct ModelSearchConfig {
     pub confirm: usize,
     /// Selection episodes each confirmed plan is valued on.
     pub select_episodes: usize,
+    /// Standard errors of the paired difference on the selection episodes by which a plan must
+    /// beat the best so far to replace it (0: any gain): the best of several noisy means is
+    /// biased up, and a plan lucky on a few episodes would replace a better best.
+    pub margin: f64,
     /// Steps kept for the model (the latest).
     pub memory_steps: usize,
     /// Lags the lenses look at, the current observation included (0: no lenses, and no tallies).
@@ -115,6 +123,7 @@ impl Default for ModelSearchConfig {
             lookahead: 1,
             confirm: 3,
             select_episodes: 10,
+            margin: 1.0,
             memory_steps: 200_000,
             window: 8,
             lens_features: 3,
@@ -143,6 +152,7 @@ impl Settings for ModelSearchConfig {
             "lookahead" => self.lookahead = s.count()?,
             "confirm" => self.confirm = s.count()?,
             "select_episodes" => self.select_episodes = s.count()?,
+            "margin" => self.margin = s.real()?,
             "memory_steps" => self.memory_steps = s.count()?,
             "window" => self.window = s.count()?,
             "lens_features" => self.lens_features = s.count()?,
@@ -163,17 +173,6 @@ pub struct ModelSearch {
     pub traces: Traces,
     /// The best controller so far.
     pub best: Option<Incumbent>,
-}
-
-/// The best controller so far, with its mean value over every selection episode it was valued on.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Incumbent {
-    /// The controller.
-    pub controller: Controller,
-    /// Its mean value on the selection episodes it was valued on.
-    pub value: f64,
-    /// How many.
-    pub episodes: usize,
 }
 
 impl Stepped for ModelSearch {
@@ -226,6 +225,9 @@ impl Stepped for ModelSearch {
             if !(value > 0.0 && value <= 1.0) {
                 return Err(Error::invalid(name, format!("{value} (expected a number in (0, 1])")));
             }
+        }
+        if !(c.margin.is_finite() && c.margin >= 0.0) {
+            return Err(Error::invalid("margin", format!("{} (expected a number >= 0)", c.margin)));
         }
         if !(c.pessimism.is_finite() && c.pessimism >= 0.0) {
             return Err(Error::invalid("pessimism", format!("{} (expected a number >= 0)", c.pessimism)));
@@ -507,8 +509,8 @@ impl ModelSearch {
     /// explorer, the credited best so far) and the best so far on the iteration's selection
     /// episodes (fresh ones, the same for all: `select_episodes`, none where the budget in steps
     /// `left` would not cover them once there is a best so far, as many as it covers before);
-    /// the best of the others replaces the best so far where it beats it on them (then true),
-    /// else they add to its value.
+    /// the best of the others replaces the best so far where it beats it on them by `margin`
+    /// ([`replaces`]; then true), else they add to its value.
     #[allow(clippy::too_many_arguments)]
     fn confirm<const F: usize>(
         &mut self,
@@ -559,9 +561,10 @@ impl ModelSearch {
         let scores: Vec<f64> = values.chunks(m).map(|v| mean(v.iter().copied())).collect();
         let k = (0..plans).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
         let fresh = |k: usize| Incumbent { controller: few[k].clone(), value: scores[k], episodes: m };
+        let on = |k: usize| &values[k * m..(k + 1) * m];
         match &mut self.best {
             None if plans > 0 => self.best = Some(fresh(k)),
-            Some(best) if plans > 0 && scores[k] > scores[plans] => *best = fresh(k),
+            Some(_) if plans > 0 && replaces(on(k), on(plans), c.margin) => self.best = Some(fresh(k)),
             Some(best) => {
                 let n = best.episodes + m;
                 best.value = (best.value * best.episodes as f64 + scores[plans] * m as f64) / n as f64;
