@@ -49,11 +49,10 @@ def test_values_in_and_beside_a_space(space: gym.Space, data: st.DataObject) -> 
     space.seed(data.draw(st.integers(0, 2**32 - 1)))
     value = data.draw(st.one_of(st.just(space.sample()), JUNK))
     f = flat(space)
-    if f.size > 65535:  # more observations than the engine's records hold: refused by name
-        with pytest.raises(cehmm.InvalidArgumentError, match="observations"):
-            cehmm.PythonWorld(Shows(space, value), horizon=2)
-        return
     world = cehmm.PythonWorld(Shows(space, value), horizon=2)
+    # More values than MAX_FLAT are hashed into cells by default (cehmm.spaces.Hashed).
+    hashed = f.size > cehmm.spaces.MAX_FLAT
+    assert world.n_observations == (cehmm.spaces.HASHED_CELLS if hashed else f.size)
     try:
         evaluation = cehmm.Policy.uniform(world, [1]).evaluate(world, episodes=2)
     except cehmm.WorldError as e:
@@ -63,6 +62,23 @@ def test_values_in_and_beside_a_space(space: gym.Space, data: st.DataObject) -> 
     assert space.contains(value), (space, value)
     assert evaluation.mean == 1.0
     assert 0 <= f.index(value) < f.size
+
+
+def test_a_space_of_more_values_than_max_flat_is_hashed() -> None:
+    # 73,728 values (the fuzz test above drew it once): more than the engine's records hold, so
+    # hashed into cells, and a value out of the space still refused.
+    space = spaces.Tuple(
+        (spaces.MultiDiscrete([2, 2, 3]), spaces.Tuple((spaces.MultiBinary(4), spaces.MultiDiscrete([2, 3, 4]))))
+        + (spaces.MultiBinary(4),)
+    )
+    assert flat(space).size == 73_728
+    space.seed(0)
+    world = cehmm.PythonWorld(Shows(space, space.sample()), horizon=2)
+    assert world.n_observations == cehmm.spaces.HASHED_CELLS
+    assert cehmm.Policy.uniform(world, [1]).evaluate(world, episodes=2).mean == 1.0
+    junk = cehmm.PythonWorld(Shows(space, 3), horizon=2)
+    with pytest.raises(cehmm.WorldError, match="is not in the space"):
+        cehmm.Policy.uniform(junk, [1]).evaluate(junk, episodes=2)
 
 
 #: What one step may return in the episode protocol: observation, reward, done.
