@@ -32,13 +32,13 @@ pub struct Budget {
     #[cfg_attr(feature = "cli", arg(long))]
     pub time_limit: Option<f64>,
     /// Stop once learning has taken this many of the world's steps (the steps of the episodes
-    /// sampled to learn, every run and every session together; the final evaluation's are
-    /// counted apart). An iteration that would cross it is cut where the steps left run out
-    /// ([`Groups`]; and so is a run's score between restarts), so the count passes it by one
-    /// batch at most (the result says so: stop `max_env_steps`); the controller search and the
-    /// model search keep the steps of their selection, and stop short of it where the steps
-    /// left no longer cover one. The count is the same for any thread or worker count. Refused on a
-    /// world valued exactly (it takes no steps).
+    /// sampled to learn, every run and every session together; the final evaluation's are counted
+    /// apart). An iteration that would cross it is cut where the steps left run out ([`Groups`];
+    /// and so is a run's score between restarts), so the count passes it by one batch at most (the
+    /// result says so: stop `max_env_steps`); the controller search and the model search keep the
+    /// steps of their selection, and stop short of it where the steps left no longer cover one. The
+    /// count is the same for any thread or worker count. Refused on a world valued exactly (it
+    /// takes no steps).
     #[cfg_attr(feature = "cli", arg(long))]
     pub max_env_steps: Option<u64>,
 }
@@ -122,13 +122,13 @@ pub const CUT_EPISODES: usize = 256;
 /// steps may cut an iteration.
 pub const GROUP_EPISODES: usize = 1024;
 
-/// The groups in which an iteration runs its episodes: `runs` runs of `episodes` episodes each
-/// (a controller's, or one episode of a policy), a group whole batches of the world (the least
-/// one holds: [`Groups::unit`]), at most `full` runs. Between two groups a spent budget cuts
-/// the iteration, and under a budget in steps a group holds no more runs than the steps left
-/// cover, foreseen from the mean length of the iteration's episodes so far (before any, the
-/// world's horizon): the count passes the budget by one batch at most, as foreseen. The first
-/// group always runs. The groups depend on the steps alone, not on threads or workers.
+/// The groups in which an iteration runs its episodes: `runs` runs of `episodes` episodes each (a
+/// controller's, or one episode of a policy), a group whole batches of the world (the least one
+/// holds), at most `full` runs. Between two groups a spent budget cuts the iteration, and under a
+/// budget in steps a group holds no more runs than the steps left cover, foreseen from the mean
+/// length of the iteration's episodes so far (before any, the world's horizon): the count passes
+/// the budget by one batch at most, as foreseen. The first group always runs. The groups depend on
+/// the steps alone, not on threads or workers.
 pub struct Groups {
     /// Runs in one batch of the world.
     unit: usize,
@@ -152,11 +152,6 @@ impl Groups {
         let unit = if episodes <= batch { batch / episodes } else { 1 };
         let full = unit * full.div_ceil(unit * episodes).max(1);
         Groups { unit, full, episodes, horizon, runs, next: 0, steps: 0 }
-    }
-
-    /// Runs in one batch of the world: the least a group holds.
-    pub fn unit(&self) -> usize {
-        self.unit
     }
 
     /// The runs of the next group, or `None` where the iteration is over: every run handed out,
