@@ -55,6 +55,7 @@ def controller(world: object, horizon: int, threads: int, iterations: int) -> fl
         world,
         nodes=8,
         value="sampled",
+        search="ce",
         samples=samples,
         episodes=episodes,
         candidates=candidates,

@@ -101,8 +101,8 @@ def test_any_backend_runs_every_optimiser_as_here():
 
     search = dict(nodes=2, samples=20, episodes=5, max_iterations=2, eval_episodes=100, progress=False)
     backend = InProcess()
-    here = cehmm.optimize_controller(Corridor(), **search)
-    there = cehmm.optimize_controller(Corridor(), backend=backend, **search)
+    here = cehmm.optimize_controller(Corridor(), **search, search="ce")
+    there = cehmm.optimize_controller(Corridor(), backend=backend, **search, search="ce")
     assert there.policy.to_json() == here.policy.to_json()
     assert {"controller_credit", "controller_values"} <= set(backend.asked)
 

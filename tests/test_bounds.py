@@ -53,7 +53,7 @@ def test_registers_past_a_u32_are_refused_not_truncated_and_nothing_aborts() -> 
     done = _limited(
         """
         try:
-            cehmm.optimize_controller(Wide(4, 2), memory="registers", registers=2**32 + 2, register_size=2,
+            cehmm.optimize_controller(Wide(4, 2), search="ce", memory="registers", registers=2**32 + 2, register_size=2,
                                       max_iterations=1, progress=False)
         except cehmm.InvalidArgumentError as e:
             print("refused:", e)
@@ -82,7 +82,7 @@ def test_a_search_whose_policy_file_would_not_be_read_back_is_refused_before_it_
         import time
         start = time.perf_counter()
         try:
-            cehmm.optimize_controller(Wide(2048, 16), nodes=64, memory="nodes", horizon=5, progress=False)
+            cehmm.optimize_controller(Wide(2048, 16), search="ce", nodes=64, memory="nodes", horizon=5, progress=False)
         except cehmm.InvalidArgumentError as e:
             print("refused:", e)
         print("seconds:", time.perf_counter() - start)
@@ -115,7 +115,7 @@ def test_each_memory_is_bounded_with_its_own_decisions_and_named_by_its_own_sett
     # `nodes`, which the user set to 2); the clock's 64 Moore nodes and 2 flat nodes fit.
     big = cehmm.PythonWorld(Board(), observations=Hashed(1024), horizon=10)
     with pytest.raises(cehmm.InvalidArgumentError, match=r"^invalid registers: registers 3 of register_size 4") as e:
-        cehmm.optimize_controller(big, nodes=2, max_iterations=1, progress=False)
+        cehmm.optimize_controller(big, nodes=2, max_iterations=1, progress=False, search="ce")
     assert "nodes 64" not in str(e.value)
     for memory in ("nodes", "clock"):
         result = cehmm.optimize_controller(
@@ -128,6 +128,7 @@ def test_each_memory_is_bounded_with_its_own_decisions_and_named_by_its_own_sett
             eval_episodes=2,
             max_iterations=1,
             progress=False,
+            search="ce",
         )
         assert result.stop_reason == "max_iterations"
 
@@ -160,7 +161,9 @@ def test_the_time_limit_holds_the_final_evaluation(optimiser: str) -> None:
     if optimiser == "optimize":
         result = cehmm.optimize(Slow(), levels=[2], samples=20, **common)
     elif optimiser == "optimize_controller":
-        result = cehmm.optimize_controller(Slow(), nodes=2, samples=10, episodes=2, select_episodes=10, **common)
+        result = cehmm.optimize_controller(
+            Slow(), nodes=2, samples=10, episodes=2, select_episodes=10, **common, search="ce"
+        )
     else:
         result = cehmm.run("random-search", Slow(), samples=5, episodes=2, **common)
     wall = time.perf_counter() - start

@@ -67,6 +67,7 @@ def test_a_gymnasium_environment_s_steps_are_counted() -> None:
         eval_episodes=20,
         max_env_steps=3000,
         progress=False,
+        search="ce",
     )
     # It stops where the steps left no longer cover a selection (4 candidates of 10 episodes,
     # as their mean length foresees them), and passes the budget by one controller's episodes
@@ -86,8 +87,8 @@ def test_the_count_and_the_result_do_not_depend_on_the_thread_count(threads: int
     assert one.policy.to_json() == other.policy.to_json()
     assert one.env_steps == other.env_steps and list(one.history["env_steps"]) == list(other.history["env_steps"])
     searched = dict(nodes=2, samples=30, episodes=10, max_env_steps=50_000, eval_episodes=100, progress=False)
-    a = cehmm.optimize_controller(world, threads=1, **searched)
-    b = cehmm.optimize_controller(world, threads=threads, **searched)
+    a = cehmm.optimize_controller(world, threads=1, **searched, search="ce")
+    b = cehmm.optimize_controller(world, threads=threads, **searched, search="ce")
     assert (a.policy.to_json(), a.env_steps) == (b.policy.to_json(), b.env_steps)
     assert a.stop_reason == "max_env_steps"
 

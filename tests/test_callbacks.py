@@ -303,6 +303,7 @@ def test_save_best_holds_the_best_of_the_whole_call_and_names_never_collide(tmp_
         seed=1,
         progress=False,
         callback=[best, each, per_run, lambda it: saved_scores.append(best.best_score)],
+        search="ce",
     )
     assert result.run_values[-1] < max(result.run_values), "the case: a later run ends worse"
     assert same_tables(cehmm.Policy.load(tmp_path / "best.json"), result.policy), "the file holds the result"

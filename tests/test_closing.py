@@ -46,7 +46,7 @@ def test_ctrl_c_during_the_final_evaluation_returns_the_result_and_its_resume_cl
 def test_ctrl_c_during_a_controller_searchs_final_evaluation_returns_the_result() -> None:
     settings = dict(nodes=2, samples=8, episodes=2, select_episodes=4, max_iterations=1, eval_episodes=300)
     with alarm(1.5, KeyboardInterrupt) as times:
-        cut = cehmm.optimize_controller(Slow(), progress=False, **settings)
+        cut = cehmm.optimize_controller(Slow(), progress=False, **settings, search="ce")
     assert times and time.monotonic() - times[0] < 2.0
     assert cut.interrupted and cut.evaluation is not None
     assert 0 < cut.evaluation.episodes < 300, cut.evaluation

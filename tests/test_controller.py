@@ -101,7 +101,9 @@ def test_what_cannot_be_searched_is_refused(tiger: cehmm.PomdpWorld) -> None:
 
 def test_a_t_maze_is_solved_on_sampled_values_and_valued_on_fresh_episodes() -> None:
     maze = TMaze(corridor=4)
-    result = cehmm.optimize_controller(maze, nodes=6, samples=500, rho=0.05, template="hold", progress=False)
+    result = cehmm.optimize_controller(
+        maze, nodes=6, samples=500, rho=0.05, template="hold", progress=False, search="ce"
+    )
     assert result.kind == "sampled"
     assert result.value == result.evaluation.mean == pytest.approx(maze.optimum)
     # Each iteration ran its 500 controllers' 20 episodes, and selection episodes.
@@ -119,7 +121,15 @@ def test_a_t_maze_is_solved_on_sampled_values_and_valued_on_fresh_episodes() -> 
 def test_repeat_first_is_held_from_a_hold_template() -> None:
     # POPGym's RepeatFirst (the first suit held for 51 steps): the optimum, 1.
     result = cehmm.optimize_controller(
-        RepeatFirst(), nodes=6, samples=500, rho=0.05, episodes=40, template="hold", patience=20, progress=False
+        RepeatFirst(),
+        nodes=6,
+        samples=500,
+        rho=0.05,
+        episodes=40,
+        template="hold",
+        patience=20,
+        progress=False,
+        search="ce",
     )
     assert result.value == pytest.approx(1.0)
     # Naming the current card: right at the first step, then when a card has the first's suit
@@ -137,7 +147,7 @@ def test_repeat_first_is_held_from_a_hold_template() -> None:
 def test_the_memoryless_stage_needs_mealy_decisions() -> None:
     assert cehmm.controller.CONTROLLER_DEFAULTS["sampled"]["decisions"] == "mealy"
     with pytest.raises(cehmm.InvalidArgumentError, match="memoryless_patience.*mealy"):
-        cehmm.optimize_controller(RepeatFirst(), decisions="moore", max_iterations=1, progress=False)
+        cehmm.optimize_controller(RepeatFirst(), decisions="moore", max_iterations=1, progress=False, search="ce")
     # Moore machines without the stage, as on exact values.
     result = cehmm.optimize_controller(
         RepeatFirst(),
@@ -150,6 +160,7 @@ def test_the_memoryless_stage_needs_mealy_decisions() -> None:
         select_episodes=10,
         eval_episodes=10,
         progress=False,
+        search="ce",
     )
     assert result.policy.levels == [8, 8] and not result.history["widened"].any()
 
@@ -187,7 +198,7 @@ class _CoinBatch(_Coin):
 def test_both_protocols_and_every_thread_count_give_the_same_search() -> None:
     settings = dict(nodes=2, samples=50, episodes=3, max_iterations=4, eval_episodes=20, select_episodes=10)
     results = [
-        cehmm.optimize_controller(world, threads=threads, progress=False, **settings)
+        cehmm.optimize_controller(world, threads=threads, progress=False, **settings, search="ce")
         for world in (_Coin(), _CoinBatch())
         for threads in (1, 2)
     ]
@@ -201,15 +212,17 @@ def test_both_protocols_and_every_thread_count_give_the_same_search() -> None:
 def test_the_engines_worlds_are_searched_on_sampled_values() -> None:
     world = cehmm.TargetTracking(case=1)
     settings = dict(nodes=4, samples=300, episodes=2, max_iterations=6, eval_episodes=10, progress=False)
-    one = cehmm.optimize_controller(world, threads=1, **settings)
-    two = cehmm.optimize_controller(world, threads=2, **settings)
+    one = cehmm.optimize_controller(world, threads=1, **settings, search="ce")
+    two = cehmm.optimize_controller(world, threads=2, **settings, search="ce")
     assert one.kind == "sampled" and one.value == two.value
     assert np.array_equal(one.history["best"], two.history["best"])
     # Case 1 is deterministic: the value is the policy's, and no better than the optimum, 86.
     assert one.value == one.policy.evaluate(world, episodes=10).mean <= 86
     # A tabular world on sampled values: the value of fresh episodes, near its exact value.
     tiger = cehmm.PomdpWorld.from_file(DATA / "tiger.95.POMDP", horizon=100, reward="belief")
-    sampled = cehmm.optimize_controller(tiger, nodes=2, samples=200, value="sampled", max_iterations=3, progress=False)
+    sampled = cehmm.optimize_controller(
+        tiger, nodes=2, samples=200, value="sampled", max_iterations=3, progress=False, search="ce"
+    )
     exact = sampled.policy.evaluate_exact(tiger).value
     assert abs(sampled.value - exact) < 4 * sampled.evaluation.std_error + 1e-9
 
@@ -222,14 +235,16 @@ def test_a_worlds_exception_comes_back_as_itself() -> None:
             return super().step(decision)
 
     with pytest.raises(KeyError, match="the world broke") as raised:
-        cehmm.optimize_controller(Broken(), nodes=2, samples=10, episodes=2, progress=False)
+        cehmm.optimize_controller(Broken(), nodes=2, samples=10, episodes=2, progress=False, search="ce")
     assert any("controller 0, episode 0" in note for note in raised.value.__notes__)
 
 
 def test_repeat_previous_pays_only_the_memory_of_the_last_cards() -> None:
     world = RepeatPrevious()
     # A policy that names the current card is right by chance only (k = 4 looks 3 cards back).
-    policy = cehmm.optimize_controller(world, nodes=1, samples=4, episodes=1, max_iterations=1, progress=False)
+    policy = cehmm.optimize_controller(
+        world, nodes=1, samples=4, episodes=1, max_iterations=1, progress=False, search="ce"
+    )
     assert -0.6 < policy.value < -0.4
 
 
@@ -238,7 +253,7 @@ def test_a_shift_register_of_registers_holds_the_last_cards() -> None:
     # last two suits) that start as a shift register; the decision reads the older.
     world = RepeatPrevious(k=3)
     result = cehmm.optimize_controller(
-        world, memory="registers", registers=2, template="window", target=1.0, seed=1, progress=False
+        world, memory="registers", registers=2, template="window", target=1.0, seed=1, progress=False, search="ce"
     )
     assert result.value == pytest.approx(world.optimum)
     assert result.policy.provenance["memory"] == "registers"
@@ -254,12 +269,12 @@ def test_credit_within_episodes_learns_the_decisions_a_shift_register_needs() ->
         memory="registers", template="window", template_weight=0.999, memoryless_patience=0, max_iterations=15
     )
     settings.update(seed=0, threads=1, eval_episodes=2000, progress=False)
-    steps = cehmm.optimize_controller(RepeatPrevious(), **settings)
-    elite = cehmm.optimize_controller(RepeatPrevious(), credit="elite", **settings)
+    steps = cehmm.optimize_controller(RepeatPrevious(), **settings, search="ce")
+    elite = cehmm.optimize_controller(RepeatPrevious(), credit="elite", **settings, search="ce")
     assert steps.policy.provenance["credit"] == "steps"
     assert steps.value > 0.3 > elite.value
     with pytest.raises(cehmm.InvalidArgumentError, match=r"credit: \"ranks\" \(expected \"steps\" or \"elite\"\)"):
-        cehmm.optimize_controller(RepeatPrevious(), credit="ranks", progress=False)
+        cehmm.optimize_controller(RepeatPrevious(), credit="ranks", progress=False, search="ce")
 
 
 class Sweep:
@@ -285,29 +300,29 @@ class Sweep:
 
 def test_a_clock_learns_the_time_indexed_policy_a_blind_search_needs() -> None:
     settings = dict(seed=0, threads=1, eval_episodes=100, progress=False)
-    clock = cehmm.optimize_controller(Sweep(), memory="clock", max_iterations=25, **settings)
+    clock = cehmm.optimize_controller(Sweep(), memory="clock", max_iterations=25, **settings, search="ce")
     assert clock.value == 12.0 and clock.policy.levels == [64, 64]
     assert clock.policy.provenance["memory"] == "clock"
     # The default memory takes turns: flat nodes (8 name 8 cells at most: 4), registers, then
     # the clock, which names 11 cells of 12 at least here.
-    turns = cehmm.optimize_controller(Sweep(), restarts=3, max_iterations=25, **settings)
+    turns = cehmm.optimize_controller(Sweep(), restarts=3, max_iterations=25, **settings, search="ce")
     assert turns.run_values[0] <= 4.0 < 10.0 <= turns.run_values[2] <= turns.value
     # A clock reads no observation: Moore decisions are its own, whatever is asked.
     moore = cehmm.optimize_controller(
-        Sweep(), memory="clock", decisions="moore", memoryless_patience=0, max_iterations=1, **settings
+        Sweep(), memory="clock", decisions="moore", memoryless_patience=0, max_iterations=1, **settings, search="ce"
     )
     assert moore.policy.levels == [64, 64]
 
 
 def test_registers_are_refused_where_they_do_not_fit() -> None:
     with pytest.raises(cehmm.InvalidArgumentError, match=r"registers.*1 of register_size 4"):
-        cehmm.optimize_controller(RepeatPrevious(), memory="registers", registers=1, progress=False)
+        cehmm.optimize_controller(RepeatPrevious(), memory="registers", registers=1, progress=False, search="ce")
     with pytest.raises(cehmm.InvalidArgumentError, match=r"memory \"registers\" with decisions \"moore\""):
         cehmm.optimize_controller(
-            RepeatPrevious(), memory="registers", decisions="moore", memoryless_patience=0, progress=False
+            RepeatPrevious(), memory="registers", decisions="moore", memoryless_patience=0, progress=False, search="ce"
         )
     with pytest.raises(cehmm.InvalidArgumentError, match=r"memory.*\"clock\" or \"alternate\""):
-        cehmm.optimize_controller(RepeatPrevious(), memory="factored", progress=False)
+        cehmm.optimize_controller(RepeatPrevious(), memory="factored", progress=False, search="ce")
 
 
 def test_a_search_resumes_from_its_checkpoint(tmp_path: Path) -> None:
@@ -316,18 +331,18 @@ def test_a_search_resumes_from_its_checkpoint(tmp_path: Path) -> None:
     # missing checkpoint starts afresh, and other settings are refused.
     maze = TMaze(corridor=3)
     settings = dict(nodes=4, samples=60, episodes=4, max_iterations=6, restarts=2, progress=False)
-    whole = cehmm.optimize_controller(maze, **settings)
+    whole = cehmm.optimize_controller(maze, **settings, search="ce")
     path = tmp_path / "search.ckpt"
-    first = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings)
+    first = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings, search="ce")
     assert path.exists()
-    again = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings)
+    again = cehmm.optimize_controller(maze, checkpoint=path, resume=True, **settings, search="ce")
     for result in (first, again):
         assert result.run_values == whole.run_values and result.value == whole.value
         assert np.array_equal(result.history["best_so_far"], whole.history["best_so_far"])
     with pytest.raises(cehmm.InvalidArgumentError, match="resume"):
-        cehmm.optimize_controller(maze, resume=True, **settings)
+        cehmm.optimize_controller(maze, resume=True, **settings, search="ce")
     with pytest.raises(cehmm.PolicyMismatchError, match="nodes 4, not 5"):
-        cehmm.optimize_controller(maze, checkpoint=path, resume=True, **{**settings, "nodes": 5})
+        cehmm.optimize_controller(maze, checkpoint=path, resume=True, **{**settings, "nodes": 5}, search="ce")
 
 
 def test_growth_finds_the_nodes_a_too_small_controller_lacks(tiger: cehmm.PomdpWorld) -> None:

@@ -46,8 +46,8 @@ def test_the_api_reference_shows_the_engines_defaults_as_their_values(package: A
     assert defaults["samples"] == repr(cehmm._core.CE_DEFAULTS["samples"])
     assert defaults["rho"] == repr(cehmm._core.CE_DEFAULTS["rho"])
     assert defaults["memory_update"] == repr(cehmm._core.CE_DEFAULTS["memory_update"])
-    nodes = {p.name: p.default for p in package["controller.optimize_controller"].parameters}["nodes"]
-    assert nodes == repr(cehmm._core.CONTROLLER_DEFAULTS["nodes"])
+    controller = {p.name: p.default for p in package["controller.optimize_controller"].parameters}
+    assert controller["eval_episodes"] == repr(cehmm._core.CONTROLLER_DEFAULTS["eval_episodes"])
     prune = {p.name: p.default for p in package["policy.Policy.graph"].parameters}["prune"]
     assert prune == repr(cehmm._core.GRAPH_PRUNE)
     shown = [

@@ -147,7 +147,7 @@ def test_an_unwritable_checkpoint_is_refused_before_the_run(case1: cehmm.TargetT
         cehmm.optimize(case1, checkpoint=path, **{**FAST, **long})
     assert raised.value.filename == str(path)
     with pytest.raises(FileNotFoundError) as raised:
-        cehmm.optimize_controller(case1, nodes=2, samples=10, checkpoint=path, progress=False, **long)
+        cehmm.optimize_controller(case1, search="ce", nodes=2, samples=10, checkpoint=path, progress=False, **long)
     assert raised.value.filename == str(path)
     assert not path.parent.exists()
 
@@ -170,7 +170,7 @@ def test_a_checkpoint_that_cannot_be_written_does_not_cost_the_result(tmp_path: 
     run = getattr(cehmm, search)
     settings = dict(samples=20, max_iterations=4, eval_episodes=20, progress=False)
     if search == "optimize_controller":
-        settings.update(nodes=2, episodes=2, select_episodes=5)
+        settings.update(nodes=4, episodes=2, select_episodes=5)
     reference = run(Corridor(), **settings)
     folder = tmp_path / "disk"
     folder.mkdir()

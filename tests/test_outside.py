@@ -221,6 +221,7 @@ def test_episodes_worth_1e308_keep_a_finite_mean_and_their_checkpoint(tmp_path) 
         max_iterations=2,
         progress=False,
         **huge,
+        search="ce",
     )
     assert math.isfinite(controller.value) and np.all(np.isfinite(controller.history["mean"]))
 

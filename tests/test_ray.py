@@ -191,7 +191,7 @@ def test_a_callback_on_ray_stops_and_raises_as_it_does_locally(cluster):
     assert _tables(remote) == _tables(local) and remote.evaluation == local.evaluation
     with pytest.raises(ZeroDivisionError):
         cehmm.optimize_controller(
-            Corridor(), nodes=2, samples=16, progress=False, backend="ray", callback=lambda it: 1 / 0
+            Corridor(), nodes=2, samples=16, progress=False, backend="ray", callback=lambda it: 1 / 0, search="ce"
         )
 
 
@@ -205,8 +205,10 @@ def test_a_scored_python_world_travels_as_what_it_was_made_from(cluster):
 
 def test_the_controller_search_on_a_python_world_on_ray_is_the_local_one(cluster):
     settings = dict(nodes=2, samples=16, episodes=4, select_episodes=8, eval_episodes=50, max_iterations=3, seed=2)
-    local = cehmm.optimize_controller(Corridor(), progress=False, **settings)
-    remote = cehmm.optimize_controller(Corridor(), progress=False, backend=cehmm.RayBackend(workers=3), **settings)
+    local = cehmm.optimize_controller(Corridor(), progress=False, **settings, search="ce")
+    remote = cehmm.optimize_controller(
+        Corridor(), progress=False, backend=cehmm.RayBackend(workers=3), **settings, search="ce"
+    )
     assert remote.policy.to_json() == local.policy.to_json()
     assert remote.value == local.value and list(remote.history["mean"]) == list(local.history["mean"])
     assert (remote.env_steps, remote.eval_env_steps) == (local.env_steps, local.eval_env_steps)
@@ -219,8 +221,10 @@ def test_a_budget_in_steps_on_ray_is_the_local_one(cluster):
     assert local.stop_reason == remote.stop_reason == "max_env_steps"
     _same_run(remote, local)
     settings = dict(nodes=2, samples=16, episodes=4, select_episodes=8, eval_episodes=50, max_env_steps=2000)
-    local_search = cehmm.optimize_controller(Corridor(), progress=False, **settings)
-    remote_search = cehmm.optimize_controller(Corridor(), progress=False, backend="ray", workers=2, **settings)
+    local_search = cehmm.optimize_controller(Corridor(), progress=False, **settings, search="ce")
+    remote_search = cehmm.optimize_controller(
+        Corridor(), progress=False, backend="ray", workers=2, **settings, search="ce"
+    )
     assert remote_search.policy.to_json() == local_search.policy.to_json()
     assert remote_search.env_steps == local_search.env_steps and remote_search.stop_reason == "max_env_steps"
 
@@ -425,8 +429,10 @@ def test_environments_keeping_numpy_state_on_ray_give_the_local_result(cluster, 
     remote = cehmm.optimize(make(), init="random", backend="ray", workers=2, **THIRD_PARTY)
     assert remote.policy.to_json() == local.policy.to_json()
     _same_run(remote, local)
-    local = cehmm.optimize_controller(make(), progress=False, **THIRD_PARTY_CONTROLLER)
-    remote = cehmm.optimize_controller(make(), progress=False, backend="ray", workers=2, **THIRD_PARTY_CONTROLLER)
+    local = cehmm.optimize_controller(make(), progress=False, **THIRD_PARTY_CONTROLLER, search="ce")
+    remote = cehmm.optimize_controller(
+        make(), progress=False, backend="ray", workers=2, **THIRD_PARTY_CONTROLLER, search="ce"
+    )
     assert remote.policy.to_json() == local.policy.to_json()
     assert remote.value == local.value and list(remote.history["mean"]) == list(local.history["mean"])
 

@@ -54,11 +54,6 @@ SHORTER: list[tuple[str, str, str]] = [
     # grid) left out of the comparison.
     ("qlearn --iterations 1e9", f"qlearn --iterations 1e5 {SMALL_GRID}", "2.6 GB, hours"),
     ("qlearn-eval q.bin --ce-policy p16.json", "qlearn-eval q.bin", "the 10 x 10 grid of the table above"),
-    (
-        "samples=500, select_episodes=200)",
-        "samples=20, select_episodes=20, max_iterations=2, eval_episodes=100)",
-        "5 min",
-    ),
     ("python3 -m cehmm.reproduce                        #", "python3 -m cehmm.reproduce --quick  #", "hours"),
     (
         "--img-dir docs/img/tuned",

@@ -205,7 +205,7 @@ def test_ctrl_c_stops_an_evaluation_of_a_slow_python_world() -> None:
 def test_ctrl_c_stops_a_controller_search_on_a_slow_python_world() -> None:
     with alarm(0.9, KeyboardInterrupt) as times:
         result = cehmm.optimize_controller(
-            Slow(), nodes=2, samples=10, episodes=2, select_episodes=5, patience=10**6, progress=False
+            Slow(), nodes=2, samples=10, episodes=2, select_episodes=5, patience=10**6, progress=False, search="ce"
         )
     assert time.monotonic() - times[0] < 2.0
     assert result.interrupted and result.stop_reason == "interrupted"

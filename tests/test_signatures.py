@@ -30,6 +30,7 @@ RUN_OPTIONS: dict[str, str] = {
     "levels": "the HHMM's shape, given by the initial policy (optimize)",
     "init": "the initial policy (optimize)",
     "value": "how a controller is valued: exact or sampled (optimize_controller)",
+    "search": "which search runs: the CE over controllers or the model search (optimize_controller)",
     "iterations": "the number of Q-learning updates, the run's length, not a learning setting",
     "progress": "a live progress line",
     "callback": "called after every iteration with its record (cehmm.callbacks), may stop the run",
@@ -65,9 +66,14 @@ def _entry_points() -> list[tuple[str, Callable[..., Any], dict[str, Any], dict[
     controller's sampled values), which it must default to ``None``."""
     controller = dict(_core.CONTROLLER_DEFAULTS)
     sampled = controller.pop("sampled")
+    # A setting of the CE over controllers alone, or the model search's default of another value,
+    # depends on the search (optimize_controller's `search`) as the others on the kind of value.
+    model = dict(_core.OPTIMISERS)["model-search"]
+    by_search = {k: model.get(k, "(none)") for k, v in controller.items() if k not in model or model[k] != v}
+    by_kind = {**by_search, **sampled}
     return [
         ("cehmm.optimize", cehmm.optimize, dict(_core.CE_DEFAULTS), {}),
-        ("cehmm.optimize_controller", cehmm.optimize_controller, controller, sampled),
+        ("cehmm.optimize_controller", cehmm.optimize_controller, controller, by_kind),
         ("cehmm.qlearning", cehmm.qlearning, dict(_core.Q_DEFAULTS), {}),
         ("cehmm.QLearner.new", QLearner.new, _without(_core.Q_DEFAULTS, "checkpoint_every"), {}),
         ("cehmm.QLearner.train", QLearner.train, {"checkpoint_every": _core.Q_DEFAULTS["checkpoint_every"]}, {}),
@@ -97,7 +103,7 @@ def signature_problems(
             if given is not None:
                 problems.append(
                     f"{name}({setting}={given!r}): the engine's default depends on the kind of value "
-                    f"({default!r} exact, {by_kind[setting]!r} sampled), so it must be None"
+                    f"or the search ({default!r}, or {by_kind[setting]!r}), so it must be None"
                 )
         elif (name, setting) in NONE_BY_DESIGN:
             if given is not None:
@@ -173,10 +179,14 @@ def test_a_result_has_the_fields_the_engine_hands_on(monkeypatch: pytest.MonkeyP
     tiger = cehmm.PomdpWorld(Path(__file__).parents[1] / "data" / "pomdp" / "tiger.95.POMDP", horizon=20)
     small = {"max_iterations": 1, "seed": 0, "eval_episodes": 10, "progress": False}
     cehmm.optimize(tiger, levels=[2], samples=20, **small)
-    cehmm.optimize_controller(tiger, nodes=2, value="sampled", samples=20, episodes=5, **small)
+    cehmm.optimize_controller(tiger, nodes=2, value="sampled", search="ce", samples=20, episodes=5, **small)
+    raw["ce"] = raw["optimize_controller"]
+    # The model search's result is a ControllerResult too.
+    cehmm.optimize_controller(tiger, nodes=4, value="sampled", samples=2, episodes=2, **small)
     cehmm.run("random-search", tiger, samples=5, **small)
     for name, cls in (
         ("optimize", cehmm.OptimizeResult),
+        ("ce", cehmm.ControllerResult),
         ("optimize_controller", cehmm.ControllerResult),
         ("run", cehmm.RunResult),
     ):

@@ -176,7 +176,15 @@ def test_spaces_and_encodings_round_trip_through_their_records(space: gym.Space)
 def test_the_agent_takes_what_the_environment_returns_and_answers_its_action_space(tmp_path: Any) -> None:
     env = Line()
     result = cehmm.optimize_controller(
-        env, nodes=2, samples=50, episodes=5, select_episodes=50, eval_episodes=200, max_iterations=10, progress=False
+        env,
+        nodes=2,
+        samples=50,
+        episodes=5,
+        select_episodes=50,
+        eval_episodes=200,
+        max_iterations=10,
+        progress=False,
+        search="ce",
     )
     path = tmp_path / "line.json"
     result.policy.save(path)
@@ -203,7 +211,14 @@ def test_an_agent_of_a_finite_world_keeps_taking_indices() -> None:
     assert not isinstance(policy.agent(), EnvAgent)
     # A Discrete environment's policy: the values are the indices (start 0).
     frozen = cehmm.optimize_controller(
-        "FrozenLake-v1", nodes=1, samples=20, max_iterations=1, eval_episodes=10, select_episodes=10, progress=False
+        "FrozenLake-v1",
+        nodes=1,
+        samples=20,
+        max_iterations=1,
+        eval_episodes=10,
+        select_episodes=10,
+        progress=False,
+        search="ce",
     )
     assert frozen.policy.agent().act(np.int64(0)) in range(4)
 
@@ -238,7 +253,15 @@ def test_a_vector_environment_of_box_spaces_is_binned_and_stepped_as_a_batch() -
     world = cehmm.PythonWorld(vector)
     assert world.batch == 3 and world.description["spaces"]["observation"]["encoding"] == "bins"
     result = cehmm.optimize_controller(
-        vector, nodes=2, samples=20, episodes=3, select_episodes=20, eval_episodes=50, max_iterations=3, progress=False
+        vector,
+        nodes=2,
+        samples=20,
+        episodes=3,
+        select_episodes=20,
+        eval_episodes=50,
+        max_iterations=3,
+        progress=False,
+        search="ce",
     )
     assert cehmm.gym.play(Line(), result.policy.agent(), episodes=5).mean() > 10
 
@@ -258,7 +281,7 @@ def test_a_controller_whose_policy_file_may_not_fit_is_refused_before_the_search
         cehmm.InvalidArgumentError,
         match=r"invalid registers: registers 3 of register_size 4 \(64 nodes\) with Mealy decisions.*Hashed\(k\)",
     ):
-        cehmm.optimize_controller(big, max_iterations=1, progress=False)
+        cehmm.optimize_controller(big, max_iterations=1, progress=False, search="ce")
 
 
 # -- issue 45: values checked against their space, sizes from arithmetic, records against their policy --------------

@@ -369,6 +369,7 @@ def optimize_controller(
     settings: Mapping[str, object],
     *,
     value: str | None = None,
+    search: str | None = None,
     progress: bool,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float | None = None,

@@ -58,11 +58,16 @@ class ControllerResult(Ending):
             after this iteration), ``widened`` (bool: the memoryless stage ended after this
             iteration), ``seconds`` and ``env_steps`` (int64, sampled values: the world's steps
             learning had taken by the iteration's end, every run together; 0 on exact values).
+            The model search's are :class:`cehmm.RunResult`'s: ``iteration``, ``mean`` (its
+            explorers'), ``best`` (the best so far on the selection episodes), ``elite_threshold``
+            and ``elite_mean`` (of the memories ranked on the model), ``successful`` (the best so
+            far replaced), ``seconds`` and ``env_steps``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,
             ``"time_limit"``, ``"max_env_steps"``, ``"target"``, ``"callback"`` (``callback=``
             returned ``False``) or ``"interrupted"`` (Ctrl-C).
         interrupted: whether Ctrl-C stopped it.
-        best_iteration: the iteration that drew the best controller, within its run.
+        best_iteration: the iteration that drew the best controller, within its run (the model
+            search: the last that replaced its best so far).
         restart: the run that found it.
         run_values: the best value of each run (exact, or on the selection episodes).
         seconds: wall time.
@@ -102,37 +107,38 @@ class ControllerResult(Ending):
 
 def optimize_controller(
     world: Any,
-    nodes: int = CONTROLLER_DEFAULTS["nodes"],
+    nodes: int | None = None,
     *,
     value: str | None = None,
-    episodes: int = CONTROLLER_DEFAULTS["episodes"],
+    search: str | None = None,
+    episodes: int | None = None,
     samples: int | None = None,
     rho: float | None = None,
     smoothing: float | None = None,
-    patience: int = CONTROLLER_DEFAULTS["patience"],
+    patience: int | None = None,
     max_iterations: int | None = None,
     target: float | None = None,
     time_limit: float | None = None,
     max_env_steps: int | None = None,
-    tolerance: float = CONTROLLER_DEFAULTS["tolerance"],
+    tolerance: float | None = None,
     seed: int = CONTROLLER_DEFAULTS["seed"],
     threads: int | None = None,
-    restarts: int = CONTROLLER_DEFAULTS["restarts"],
-    candidates: int = CONTROLLER_DEFAULTS["candidates"],
-    select_episodes: int = CONTROLLER_DEFAULTS["select_episodes"],
+    restarts: int | None = None,
+    candidates: int | None = None,
+    select_episodes: int | None = None,
     eval_episodes: int = CONTROLLER_DEFAULTS["eval_episodes"],
-    injection: float = CONTROLLER_DEFAULTS["injection"],
-    injections: int = CONTROLLER_DEFAULTS["injections"],
-    growths: int = CONTROLLER_DEFAULTS["growths"],
-    model_nodes: int = CONTROLLER_DEFAULTS["model_nodes"],
+    injection: float | None = None,
+    injections: int | None = None,
+    growths: int | None = None,
+    model_nodes: int | None = None,
     template: str | None = None,
     template_weight: float = CONTROLLER_DEFAULTS["template_weight"],
     decisions: str | None = None,
     memoryless_patience: int | None = None,
     memory: str | None = None,
-    registers: int = CONTROLLER_DEFAULTS["registers"],
-    register_size: int = CONTROLLER_DEFAULTS["register_size"],
-    credit: str = CONTROLLER_DEFAULTS["credit"],
+    registers: int | None = None,
+    register_size: int | None = None,
+    credit: str | None = None,
     progress: bool = True,
     checkpoint: str | os.PathLike[str] | None = None,
     checkpoint_every: float = CE_DEFAULTS["checkpoint_every"],
@@ -146,14 +152,34 @@ def optimize_controller(
     callback: CallbackLike = None,
     tensorboard_log: str | os.PathLike[str] | None = None,
 ) -> ControllerResult:
-    """Searches a deterministic ``nodes``-node controller of ``world`` by the cross-entropy
-    method over whole controllers (model §8).
+    """Searches a deterministic controller of ``world``: by the cross-entropy method over whole
+    controllers (``search="ce"``, model §8), or by the model search, which learns a memory from
+    every step it takes (``search="model"``, model §10).
 
-    Each iteration draws ``samples`` controllers from independent categorical laws (each node's
-    decision, each node's successor after each observation), values them, keeps the best
-    ``ceil(rho · samples)`` (leaving out ties at the threshold when some controllers beat it)
-    and refits the laws (``p := smoothing · frequency + (1 − smoothing) · p``). A run stops
-    after ``patience`` iterations without a better controller or a higher elite threshold.
+    Unless ``search`` says otherwise, the search is ``"model"`` on sampled values (the default of
+    every world but a :class:`PomdpWorld`) where the world's value is the sum of its steps' rewards
+    (a world written in Python or a Gymnasium environment without a ``score``, a :class:`PomdpWorld`
+    with ``value="sampled"``), and ``"ce"`` elsewhere (exact values, a world scored as a whole such
+    as the paper's :class:`TargetTracking`). The model search is ``cehmm.run("model-search", world,
+    ...)``: each iteration a few explorers run a few episodes, every step taken is kept, candidate
+    memories are ranked and their decisions planned on the model those steps give, and the best
+    plans are confirmed on the iteration's selection episodes; the best so far is replaced only by a
+    plan that beats it there by more than the noise. At 50,000 steps of POPGym's memory games it
+    reaches at least RecurrentPPO's value where the CE over controllers stays at the best memoryless
+    policy's (docs/memory-benchmark.md). It takes the settings below it shares with the CE over
+    controllers, meaning the same there (``nodes``, ``registers``, ``template``,
+    ``template_weight``, ``samples``: its explorers, ``episodes``: theirs, ``rho``, ``smoothing``,
+    ``select_episodes``, ``patience``, ``max_iterations``, ``target``, ``time_limit``,
+    ``max_env_steps``, ``seed``, ``threads``, ``eval_episodes``), with its own defaults
+    (``cehmm.stepped.OPTIMISERS["model-search"]``, where its other settings are: use
+    :func:`cehmm.run` for them); a setting of the CE over controllers alone is refused by name.
+
+    The CE over controllers: each iteration draws ``samples`` controllers from independent
+    categorical laws (each node's decision, each node's successor after each observation), values
+    them, keeps the best ``ceil(rho · samples)`` (leaving out ties at the threshold when some
+    controllers beat it) and refits the laws (``p := smoothing · frequency + (1 − smoothing) · p``).
+    A run stops after ``patience`` iterations without a better controller or a higher elite
+    threshold.
 
     On a :class:`PomdpWorld` the values are exact by default. On every other world (the
     engine's, a world written in Python, a Gymnasium environment, an id, a factory or a vector
@@ -171,17 +197,24 @@ def optimize_controller(
 
     Args:
         world: any world :func:`optimize` takes.
-        nodes: nodes of the controller (where no model start is kept: see ``model_nodes``).
+        nodes: nodes of the controller (where no model start is kept: see ``model_nodes``;
+            default 8 with ``search="ce"``; with ``"model"`` 16, a power of ``registers``).
         value: ``"exact"`` (a :class:`PomdpWorld` only; its default) or ``"sampled"`` (the
             default of every other world).
-        episodes: sampled values: episodes per controller and iteration.
+        search: ``"ce"`` (the CE over controllers) or ``"model"`` (the model search: on
+            sampled values of a world that gives its steps' rewards only, and their default).
+        episodes: sampled values: episodes per controller and iteration (default 20; the model
+            search: 4 per explorer).
         samples: controllers per iteration (default 2000 on exact values, 200 on sampled:
-            ``cehmm.controller.CONTROLLER_DEFAULTS`` and its ``"sampled"`` entry).
-        rho: selective rate, ``0 < rho < 1`` (default 0.02 on exact values, 0.05 on sampled).
+            ``cehmm.controller.CONTROLLER_DEFAULTS`` and its ``"sampled"`` entry; the model
+            search: 16 explorers).
+        rho: selective rate, ``0 < rho < 1`` (default 0.02 on exact values, 0.05 on sampled;
+            the model search's rounds on the model: 0.05).
         smoothing: ``0 < smoothing <= 1`` (default 0.1 on exact values, 0.25 on sampled: with
-            credit within episodes the decisions' refits are sure enough for larger steps).
-        patience: iterations without progress before a run stops (or, with ``injections``
-            left, escapes).
+            credit within episodes the decisions' refits are sure enough for larger steps; the
+            model search: 0.5).
+        patience: iterations without progress (default 50; the model search: 20) before a run
+            stops (or, with ``injections`` left, escapes).
         max_iterations: stop a run after this many iterations.
         target: stop once the best value so far reaches this.
         time_limit: stop after this many seconds (all runs together), checked before each
@@ -199,22 +232,23 @@ def optimize_controller(
             the world at most, or stops short of it where the steps left no longer cover a
             selection; ``stop_reason`` is ``"max_env_steps"``. Refused on exact values (no step
             is taken).
-        tolerance: absolute tolerance of each infinite-horizon value, and the least gain that
+        tolerance: absolute tolerance of each infinite-horizon value (default 1e-6), and the least gain that
             counts as progress.
         seed: seed of every random stream.
         threads: worker threads (default: one per core).
-        restarts: independent runs (the first with ``seed``); the best controller of all is
+        restarts: independent runs (default 0, see below; the first with ``seed``); the best controller of all is
             returned (exact values, or the best on the selection episodes). 0 (the default):
             runs follow one another until ``time_limit`` or ``target`` (one run without a time
             limit).
-        candidates: sampled values: controllers of each iteration scored on the selection
+        candidates: sampled values: controllers of each iteration (default 4) scored on the selection
             episodes.
-        select_episodes: sampled values: the selection episodes.
+        select_episodes: sampled values: the selection episodes (default 200; the model search: 10 a
+            confirmed plan, each iteration's own).
         eval_episodes: sampled values: the fresh episodes of ``evaluation``.
-        injection: the weight of the uniform law mixed into every law at an escape.
-        injections: escapes per run: when patience runs out, mix the uniform law in and go on
+        injection: the weight of the uniform law mixed into every law at an escape (default 0.2).
+        injections: escapes per run (default 0): when patience runs out, mix the uniform law in and go on
             (0: stop).
-        growths: escapes by growth per run, once the injections are spent: when patience runs
+        growths: escapes by growth per run (default 0), once the injections are spent: when patience runs
             out, start the laws again around the best controller with one node more (the new
             node a copy of the node it enters most) and go on; the policy returned may have up
             to ``nodes + growths`` nodes.
@@ -224,14 +258,14 @@ def optimize_controller(
             Where it beats every blind policy it is kept: the search then has its nodes
             (instead of ``nodes``), the laws start around it (its choices at
             ``template_weight``) and the first iteration values it, so the result is never
-            worse. 0: no model start.
+            worse. 0: no model start (default 64).
         template: where there is no model start, the memory the laws start from:
             ``"uniform"``, ``"hold"`` (a latch: every node but the start node stays where it
             is), ``"clock"`` (node ``q`` moves on to ``q + 1``), ``"mixed"`` (both) or
             ``"window"`` (the last observations: node ``q`` moves to ``(q · Y + y) mod nodes``,
             so ``Y^k`` nodes hold the last ``k``); the
             search keeps of it what pays (default ``"uniform"`` on exact values, ``"mixed"`` on
-            sampled: measured in docs/memory-benchmark.md).
+            sampled: measured in docs/memory-benchmark.md; the model search: ``"uniform"``).
         template_weight: the template's weight in the first successor laws (the model start's
             in every first law), ``0 <= w < 1``.
         decisions: what a decision reads: ``"moore"`` (the node) or ``"mealy"`` (the node and
@@ -254,10 +288,11 @@ def optimize_controller(
             shift register of the last observations, then the clock; in the first round the
             first run ends by 50 % of ``time_limit`` and the second by 95 %; the best run is
             kept). Default ``"nodes"`` on exact values, ``"alternate"`` on sampled.
-        registers: registers of a factored memory, at least 2.
-        register_size: values of each register (the ``"window"`` template's first register
+        registers: registers of a factored memory, at least 2 (default 3; the model search: 2,
+            0 for flat nodes).
+        register_size: values of each register (default 4; the ``"window"`` template's first register
             copies the observation modulo this), at least 2.
-        credit: what refits the decision laws on sampled values: ``"steps"`` (credit within
+        credit: what refits the decision laws on sampled values (default ``"steps"``): ``"steps"`` (credit within
             episodes: where the world's value is the discounted sum of its steps' rewards, a
             world written in Python or a Gymnasium environment without ``score``, each decision
             row moves towards the decision whose steps had the highest mean value still to
@@ -348,6 +383,7 @@ def optimize_controller(
                 credit=credit,
             ),
             value=value,
+            search=search,
             progress=progress,
             checkpoint=checkpoint,
             checkpoint_every=checkpoint_every,

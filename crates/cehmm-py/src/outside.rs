@@ -82,6 +82,11 @@ impl PyOutsideWorld {
         (self.shape, self.description.clone())
     }
 
+    /// Whether its value is the sum of its steps' rewards (no score of its own).
+    pub fn additive(&self) -> bool {
+        self.score.is_none()
+    }
+
     fn batch_world(&self) -> PyBatch {
         let world = Python::attach(|py| PyOutsideWorld {
             world: self.world.clone_ref(py),

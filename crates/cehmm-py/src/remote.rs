@@ -56,6 +56,8 @@ pub struct PyRemoteWorld {
     /// The world, where it is tabular (a `.pomdp` file): its controllers have exact values and a
     /// model start.
     model: Option<PomdpWorld>,
+    /// Whether the world's value is the sum of its steps' rewards (`Episodes::additive`).
+    additive: bool,
 }
 
 #[pymethods]
@@ -63,19 +65,20 @@ impl PyRemoteWorld {
     /// `world` (an engine world or a world written in Python) sampled by `backend`.
     #[new]
     fn new(backend: Py<PyAny>, world: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let (shape, description, model) = if let Ok(w) = world.extract::<PyRef<'_, crate::world::PyWorld>>() {
-            let (shape, description) = ceworld::with_world!(&w.world, x => (x.shape(), x.description()));
-            (shape, description, w.world.tabular().cloned())
+        let (shape, description, model, additive) = if let Ok(w) = world.extract::<PyRef<'_, crate::world::PyWorld>>() {
+            let (shape, description, additive) =
+                ceworld::with_world!(&w.world, x => (x.shape(), x.description(), x.additive()));
+            (shape, description, w.world.tabular().cloned(), additive)
         } else if let Ok(w) = world.extract::<PyRef<'_, crate::outside::PyOutsideWorld>>() {
             let (shape, description) = w.described();
-            (shape, description, None)
+            (shape, description, None, w.additive())
         } else {
             return Err(pyo3::exceptions::PyTypeError::new_err(format!(
                 "invalid world: {} (expected a cehmm world or a world written in Python)",
                 crate::convert::shown(world)
             )));
         };
-        Ok(PyRemoteWorld { backend, shape, description, model })
+        Ok(PyRemoteWorld { backend, shape, description, model, additive })
     }
 
     /// The backend that samples the episodes.
@@ -99,6 +102,7 @@ impl PyRemoteWorld {
             shape: self.shape,
             description: self.description.clone(),
             model: self.model.clone(),
+            additive: self.additive,
             interrupt,
             raised: Mutex::new(None),
         }
@@ -111,6 +115,7 @@ pub struct Remote {
     shape: Shape,
     description: Value,
     model: Option<PomdpWorld>,
+    additive: bool,
     interrupt: Interrupt,
     raised: Mutex<Option<PyErr>>,
 }
@@ -275,6 +280,10 @@ impl Episodes for Remote {
 
     fn interrupt(&self) -> Option<&Interrupt> {
         Some(&self.interrupt)
+    }
+
+    fn additive(&self) -> bool {
+        self.additive
     }
 
     fn remote(&self) -> Option<&dyn ceworld::episodes::Remote> {

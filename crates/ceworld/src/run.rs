@@ -181,6 +181,85 @@ pub fn controller_setup(
     Ok((valued, config))
 }
 
+/// What a controller search of a world runs (`cehmm.optimize_controller`'s `search`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Search {
+    /// The cross-entropy method over whole controllers (model §8).
+    Ce,
+    /// The search of memories on the model of every step taken (model §10: `model-search`).
+    Model,
+}
+
+impl Search {
+    /// `"ce"` or `"model"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Search::Ce => "ce",
+            Search::Model => "model",
+        }
+    }
+
+    /// The search named `name`, or an error naming both.
+    pub fn parse(name: &str) -> Result<Search> {
+        match name {
+            "ce" => Ok(Search::Ce),
+            "model" => Ok(Search::Model),
+            other => Err(Error::invalid("search", format!("{other:?} (expected \"ce\" or \"model\")"))),
+        }
+    }
+
+    /// The search of `world` whose controllers are valued as `kind` says: the model search on
+    /// sampled values where the world's value is the sum of its steps' rewards
+    /// ([`Episodes::additive`]: what it learns from), which learns from every step it takes
+    /// where the CE over controllers values each candidate on episodes of its own (model §10: at
+    /// 50,000 steps of the memory games of `POPGym` it is at least `RecurrentPPO`'s value, the CE
+    /// over controllers at the best memoryless policy's); elsewhere (exact values, a world scored
+    /// as a whole, the paper's target tracking among them) the CE over controllers.
+    pub fn default_for(world: &dyn Episodes, kind: ValueKind) -> Search {
+        if kind == ValueKind::Sampled && world.additive() { Search::Model } else { Search::Ce }
+    }
+
+    /// The search a controller search of `world` valued as `kind` says (or as the world's
+    /// default) runs: `search`, or [`Search::default_for`]. The model search runs on sampled
+    /// values of a world that gives its steps' rewards only.
+    pub fn resolve(world: &dyn Episodes, kind: Option<ValueKind>, search: Option<Search>) -> Result<Search> {
+        let kind = Valued::of(world, kind)?.kind();
+        match search.unwrap_or(Search::default_for(world, kind)) {
+            Search::Model if kind == ValueKind::Exact => {
+                Err(Error::invalid("search", "\"model\" on exact values (expected \"ce\", or value=\"sampled\")"))
+            }
+            Search::Model if !world.additive() => Err(Error::invalid(
+                "search",
+                "\"model\" on a world whose value is not the (discounted) sum of its steps' rewards (expected \
+                 \"ce\": the model search learns from each step's reward)",
+            )),
+            search => Ok(search),
+        }
+    }
+}
+
+/// The model search (model §10) as a controller search runs it: with `settings` by name, each
+/// one given `None` ([`crate::settings::Given::Nothing`]) left at the model search's default, and
+/// a setting of the CE over controllers alone refused by its name.
+pub fn model_search(
+    world: &dyn Episodes,
+    settings: &[Named],
+    options: &RunOptions<'_>,
+) -> Result<(SteppedOutcome, PolicyFile)> {
+    let optimiser = optimiser(crate::ce::controller::model_search::ModelSearch::NAME)?;
+    let own = (optimiser.defaults)();
+    let mut given = Vec::new();
+    for s in settings.iter().filter(|s| s.value != crate::settings::Given::Nothing) {
+        if !own.contains_key(&s.name) {
+            let why =
+                format!("{} (a setting of search=\"ce\", the CE over controllers, not of search=\"model\")", s.shown);
+            return Err(Error::invalid(&s.name, why));
+        }
+        given.push(s.clone());
+    }
+    (optimiser.run)(world, &given, options)
+}
+
 /// The cross-entropy method over deterministic controllers (model §8) of `world`, valued as
 /// `world` says, with `config` (from [`controller_setup`]).
 pub fn controller(world: Valued<'_>, config: &ControllerConfig, options: &RunOptions<'_>) -> Result<ControllerOutcome> {

@@ -127,3 +127,54 @@ fn a_run_resumes_from_its_checkpoint_bit_for_bit() {
     let e = run_stepped::<RandomSearch>(&world, &other, Some(&checkpointing), |_| Flow::Continue).unwrap_err();
     assert!(matches!(e, Error::CheckpointMismatch(ref m) if m.contains("nodes 3, not 4")), "{e}");
 }
+
+#[test]
+fn a_target_stops_the_run_once_the_best_so_far_reaches_it() {
+    let whole = run_stepped::<RandomSearch>(&tiger(), &config(8), None, |_| Flow::Continue).unwrap();
+    // The third iteration's best so far as the target: the run stops there, the same run.
+    let target = whole.history[2].best;
+    let at = whole.history.iter().position(|r| r.best >= target).unwrap();
+    let c = RandomSearchConfig { rules: Rules { target: Some(target), ..config(8).rules }, ..config(8) };
+    let cut = run_stepped::<RandomSearch>(&tiger(), &c, None, |_| Flow::Continue).unwrap();
+    assert_eq!((cut.stop, cut.history.len()), (StopReason::Target, at + 1));
+    let timeless = |h: &[ceworld::ce::record::IterationRecord]| -> Vec<(f64, f64, u64)> {
+        h.iter().map(|r| (r.mean, r.best, r.env_steps)).collect()
+    };
+    assert_eq!(timeless(&cut.history), timeless(&whole.history[..=at]));
+    // By name, and refused where it is not a number.
+    let run = optimiser("random-search").unwrap().run;
+    let settings = [set("samples", Given::Int(40)), set("target", Given::Real(f64::NEG_INFINITY))];
+    let bad = run(&tiger(), &settings, &RunOptions::quiet()).unwrap_err().to_string();
+    assert!(bad.contains("target") && bad.contains("-inf") && bad.contains("finite"), "{bad}");
+}
+
+#[test]
+fn a_controller_search_is_the_model_search_on_sampled_values_unless_told() {
+    use ceworld::ce::controller::ValueKind;
+    use ceworld::run::{Search, model_search};
+    let world = tiger();
+    assert_eq!(Search::resolve(&world, None, None).unwrap(), Search::Ce, "a tabular world: exact values, the CE");
+    assert_eq!(Search::resolve(&world, Some(ValueKind::Sampled), None).unwrap(), Search::Model);
+    assert_eq!(Search::resolve(&world, Some(ValueKind::Sampled), Some(Search::Ce)).unwrap(), Search::Ce);
+    let e = Search::resolve(&world, None, Some(Search::Model)).unwrap_err().to_string();
+    assert!(e.contains("search") && e.contains("\"model\" on exact values"), "{e}");
+    let e = Search::parse("dice").unwrap_err().to_string();
+    assert!(e.contains("\"dice\"") && e.contains("\"ce\" or \"model\""), "{e}");
+    // Settings of both mean the same; `None` leaves the model search's default; one of the CE
+    // alone is refused by its name.
+    let small = [
+        set("nodes", Given::Int(4)),
+        set("samples", Given::Int(2)),
+        set("episodes", Given::Int(2)),
+        set("max_iterations", Given::Int(2)),
+        set("eval_episodes", Given::Int(50)),
+        set("patience", Given::Nothing),
+    ];
+    let (outcome, file) = model_search(&world, &small, &RunOptions::quiet()).unwrap();
+    let direct = (optimiser("model-search").unwrap().run)(&world, &small[..5], &RunOptions::quiet()).unwrap().0;
+    assert_eq!((outcome.policy, outcome.evaluation), (direct.policy, direct.evaluation));
+    assert_eq!(file.provenance["method"], "model-search");
+    let with = [&small[..], &[set("injection", Given::Real(0.5))]].concat();
+    let e = model_search(&world, &with, &RunOptions::quiet()).unwrap_err().to_string();
+    assert!(e.contains("injection") && e.contains("search=\"ce\""), "{e}");
+}

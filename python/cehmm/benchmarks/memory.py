@@ -10,9 +10,12 @@ time on one core; ``--budgets`` takes others (``5k``, ``1000``, ``30s``). Method
 * ``random``: the uniform policy (no learning; one cell per task);
 * ``memoryless``: the controller search (model §8) over one node, with its defaults: the best
   memoryless policy it finds in the budget;
-* ``cehmm``: the default learner of sampled worlds (:func:`cehmm.optimize_controller`'s defaults);
+* ``cehmm``: the cross-entropy method over controllers on sampled values, with its defaults
+  (:func:`cehmm.optimize_controller` with ``search="ce"``: the default learner of sampled worlds
+  before the model search);
 * ``model-search``: the search of memories on the model of every step (``cehmm.run("model-search",
-  ...)``, issue 47), with its defaults;
+  ...)``, issue 47), with its defaults: the default learner of sampled worlds
+  (:func:`cehmm.optimize_controller`'s defaults);
 * ``recurrent-ppo``: sb3-contrib's RecurrentPPO (:mod:`cehmm.benchmarks.rival`; optional: ``pip
   install -e '.[rivals]'``), trained once per task and seed to the largest budget, valued at each.
 
@@ -165,7 +168,7 @@ def run_cell(name: str, method: str, spent: str, seed: int, episodes: int) -> li
             best = found.history["best"]
         else:
             nodes: dict[str, Any] = {"nodes": 1} if method == "memoryless" else {}
-            found = cehmm.optimize_controller(world, value="sampled", **limits, **nodes)
+            found = cehmm.optimize_controller(world, value="sampled", search="ce", **limits, **nodes)
             best = found.history["best_so_far"]
         policy, steps = found.policy, found.env_steps
         points = zip(found.history["env_steps"], found.history["seconds"], best, strict=True)

@@ -55,8 +55,9 @@ def render(records: list[dict[str, Any]], tasks: Mapping[str, Any], order: Calla
         "episodes, played through the environment's own loop by its agent. A cell is the mean over seeds "
         "with their range in brackets; RecurrentPPO (sb3-contrib, `MlpLstmPolicy`, `n_steps=512`, CPU) is "
         "trained once per task to the largest budget in steps and valued at each. `memoryless` is the "
-        "controller search over one node; `cehmm` the default learner (`optimize_controller`'s defaults); "
-        '`model-search` the search of memories on the model of every step (`cehmm.run("model-search")`).',
+        'controller search over one node; `cehmm` the CE over controllers (`optimize_controller(search="ce")`); '
+        '`model-search` the search of memories on the model of every step (`cehmm.run("model-search")`), '
+        "the default learner (`optimize_controller`'s defaults on sampled values).",
         "",
         f"Machines: {'; '.join(machines) or '—'}. Commits: {', '.join(commits) or '—'}.",
         "",

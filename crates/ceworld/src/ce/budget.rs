@@ -257,6 +257,10 @@ impl<E: Episodes + ?Sized> Episodes for Metered<'_, E> {
         self.episodes.shape()
     }
 
+    fn additive(&self) -> bool {
+        self.episodes.additive()
+    }
+
     fn description(&self) -> Value {
         self.episodes.description()
     }

@@ -30,6 +30,9 @@ use crate::settings::{Setting, Settings};
 /// config's own) and read there by [`Rules::set`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Rules {
+    /// Stop once the best value so far (an iteration record's `best`) reaches this.
+    #[serde(default)]
+    pub target: Option<f64>,
     /// Stop after this many iterations in a row without success.
     pub patience: usize,
     /// Stop after this many iterations.
@@ -48,6 +51,7 @@ pub struct Rules {
 impl Default for Rules {
     fn default() -> Self {
         Rules {
+            target: None,
             patience: 20,
             max_iterations: None,
             budget: Budget::default(),
@@ -61,13 +65,14 @@ impl Default for Rules {
 impl Rules {
     /// Whether `name` is one of these settings.
     pub fn owns(name: &str) -> bool {
-        ["patience", "max_iterations", "seed", "threads", "eval_episodes"].contains(&name)
+        ["target", "patience", "max_iterations", "seed", "threads", "eval_episodes"].contains(&name)
             || Budget::NAMES.contains(&name)
     }
 
     /// Sets `s`, one of these settings ([`Rules::owns`]).
     pub fn set(&mut self, s: &Setting<'_>) -> Result<()> {
         match s.name {
+            "target" => self.target = s.optional_real()?,
             "patience" => self.patience = s.count()?,
             "max_iterations" => self.max_iterations = s.optional_count()?,
             "seed" => self.seed = s.seed()?,
@@ -236,6 +241,9 @@ pub fn run_stepped_observed<O: Stepped>(
     O::validate(config)?;
     let rules = O::rules(config);
     crate::evaluate::check_episodes(rules.eval_episodes)?;
+    if let Some(t) = rules.target.filter(|t| !t.is_finite()) {
+        return Err(crate::error::Error::invalid("target", format!("{t} (expected a finite number)")));
+    }
     let pool = thread_pool(rules.threads)?;
     let mut saver = Saver::<SteppedKind<O>>::new(world, config, checkpointing, None)?;
     // Learning's episodes, their steps counted on from the sessions before.
@@ -367,10 +375,10 @@ impl<O: Stepped> Iterations for SteppedIterations<'_, '_, O> {
     }
 
     fn stop(&self, run: &SteppedRun<O>, record: &IterationRecord, reserve: f64) -> Option<StopReason> {
-        let Rules { patience, max_iterations, budget, .. } = *self.rules;
-        // The shared rules, without a target (a stepped optimiser has none).
-        let rules = StopRules { target: None, patience, max_iterations, time_limit: budget.time_limit };
-        rules.check(run.history.len(), record.mean, run.since, record.seconds + reserve)
+        let Rules { target, patience, max_iterations, budget, .. } = *self.rules;
+        // The target is of the best so far, as the controller search's.
+        let rules = StopRules { target, patience, max_iterations, time_limit: budget.time_limit };
+        rules.check(run.history.len(), record.best, run.since, record.seconds + reserve)
     }
 
     fn closing(&self, _: &IterationRecord) -> Option<(usize, usize)> {

@@ -47,6 +47,8 @@ enum Command {
     /// (--pomdp FILE) or target tracking (--case, --param). Each is valued exactly on a .pomdp
     /// file's tabular world (--value exact, the default there) or on any world by the mean of
     /// episodes on common random numbers (--value sampled, the default on every other world).
+    /// The model search of every step taken (model §10), Python's `optimize_controller` default
+    /// on sampled values of a world that gives its steps' rewards, is `run model-search`.
     ///
     /// Prints a live progress line; Ctrl-C stops between iterations and still saves the best
     /// controller so far as a policy file (two levels [n, n], one-hot tables).

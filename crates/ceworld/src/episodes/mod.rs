@@ -134,6 +134,13 @@ pub trait Episodes: Sync {
     fn tabular(&self) -> Option<&PomdpWorld> {
         None
     }
+    /// Whether an episode's value is the discounted sum of its steps' rewards, so that
+    /// [`Episodes::run_controllers_credited`] gives each step (model §8's credit within episodes,
+    /// model §10's model of every step): a world's that gives its discount ([`World::discount`]),
+    /// one written outside without a score of its own. False by default.
+    fn additive(&self) -> bool {
+        false
+    }
 }
 
 /// Episodes sampled elsewhere: what stays there (the episodes, their records) is asked for by
@@ -208,6 +215,10 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
         self.episodes.shape()
     }
 
+    fn additive(&self) -> bool {
+        self.episodes.additive()
+    }
+
     fn description(&self) -> Value {
         self.episodes.description()
     }
@@ -272,6 +283,10 @@ impl<E: Episodes + ?Sized> Episodes for Interruptible<'_, E> {
 impl<W: World> Episodes for W {
     fn shape(&self) -> Shape {
         Shape { observations: self.n_observations(), decisions: self.n_decisions(), horizon: self.horizon() }
+    }
+
+    fn additive(&self) -> bool {
+        self.discount().is_some()
     }
 
     fn description(&self) -> Value {

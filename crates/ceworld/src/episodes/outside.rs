@@ -393,6 +393,10 @@ impl<B: BatchWorld> Episodes for Lockstep<B> {
         self.shape
     }
 
+    fn additive(&self) -> bool {
+        self.lock().additive()
+    }
+
     fn description(&self) -> Value {
         self.description.clone()
     }

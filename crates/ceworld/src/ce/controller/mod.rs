@@ -40,7 +40,7 @@ pub use config::{
 };
 use laws::Laws;
 use memory::ALTERNATE_SHARES;
-pub use outcome::{ControllerIteration, ControllerOutcome};
+pub use outcome::{ControllerIteration, ControllerOutcome, ControllerSummary};
 use selection::{Scores, Valuation, kept_values};
 use value::Seen;
 pub use value::{ControllerValue, Scratch, Valued};

@@ -212,7 +212,16 @@ impl Stepped for ModelSearch {
         if c.registers > 0 {
             let d = (c.nodes as f64).powf(1.0 / c.registers as f64).round() as usize;
             if d < 2 || d.checked_pow(c.registers as u32) != Some(c.nodes) {
-                let why = format!("{} (expected a power of 2 or more to the registers, {})", c.nodes, c.registers);
+                let why = format!(
+                    "{} (expected a power of 2 or more to the registers, {}: e.g. {}; or registers=0 for flat nodes)",
+                    c.nodes,
+                    c.registers,
+                    (2..5usize)
+                        .filter_map(|d| d.checked_pow(c.registers.min(64) as u32))
+                        .map(|n| n.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
                 return Err(Error::invalid("nodes", why));
             }
         }

@@ -7,6 +7,7 @@ use serde_json::json;
 use crate::ce::controller::checkpoint::FinishedSearch;
 use crate::ce::controller::{ControllerConfig, ValueKind};
 use crate::ce::record::{Ending, IterationRecord};
+use crate::ce::stepped::SteppedOutcome;
 use crate::ce::stopping::StopReason;
 use crate::episodes::Episodes;
 use crate::evaluate::Evaluation;
@@ -89,7 +90,7 @@ pub struct ControllerOutcome {
 /// What the controller search's result says beside its policy, history and evaluation
 /// (`cehmm.ControllerResult`'s other fields).
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ControllerSummary<'a> {
+pub struct ControllerSummary {
     /// How the search ended.
     #[serde(flatten)]
     pub ending: Ending,
@@ -102,13 +103,30 @@ pub struct ControllerSummary<'a> {
     /// The run that found it.
     pub restart: usize,
     /// The best value of each run, in order.
-    pub run_values: &'a [f64],
+    pub run_values: Vec<f64>,
+}
+
+impl ControllerSummary {
+    /// A controller search's summary of the model search's `outcome` (model §10; one run,
+    /// sampled values): its value is its evaluation's mean, its best iteration the last that
+    /// replaced the best so far, its run's value the best so far on the selection episodes.
+    pub fn of_stepped(outcome: &SteppedOutcome) -> ControllerSummary {
+        let best_iteration = outcome.history.iter().rposition(|r| r.successful).unwrap_or(0);
+        ControllerSummary {
+            ending: outcome.ending(),
+            value: outcome.evaluation.mean,
+            kind: ValueKind::Sampled.as_str(),
+            best_iteration,
+            restart: 0,
+            run_values: outcome.history.last().map(|r| r.best).into_iter().collect(),
+        }
+    }
 }
 
 impl ControllerOutcome {
     /// What the result says beside its policy, history and evaluation, by the names the
     /// bindings hand on.
-    pub fn summary(&self) -> ControllerSummary<'_> {
+    pub fn summary(&self) -> ControllerSummary {
         let ending = Ending {
             stop_reason: self.stop,
             seconds: self.seconds,
@@ -121,7 +139,7 @@ impl ControllerOutcome {
             kind: self.kind.as_str(),
             best_iteration: self.best_iteration,
             restart: self.restart,
-            run_values: &self.run_values,
+            run_values: self.run_values.clone(),
         }
     }
 
