@@ -17,7 +17,7 @@ use crate::arg::WorldArg;
 use crate::convert::{columns, flag, named, text};
 use crate::errors::OrRaise;
 use crate::policy::PyPolicy;
-use crate::run::{checkpointing, watched};
+use crate::run::{checkpointing, stepped_result, watched};
 
 /// Searches a deterministic controller of any world with `settings` (keyword settings by name;
 /// one left out, or `None`, has the default of the search and of the kind of value used): by
@@ -53,11 +53,7 @@ pub fn optimize_controller<'py>(
         let (o, file) = watched(py, &world, progress, checkpointing.as_ref(), callback, searched, |o| {
             o.0.checkpoint_error.as_deref()
         })?;
-        let result = crate::results::fields(py, &ControllerSummary::of_stepped(&o))?;
-        result.set_item("history", columns(py, &o.history)?)?;
-        result.set_item("policy", PyPolicy { file })?;
-        result.set_item("evaluation", crate::results::evaluation(py, &o.evaluation)?)?;
-        return Ok(result);
+        return stepped_result(py, &ControllerSummary::of_stepped(&o), &o, file);
     }
     let checkpointing = checkpointing(py, Checkpoint::<ControllerSearch>::peek, checkpoint, checkpoint_every, resume)?;
     // The settings are checked before any episode is run.

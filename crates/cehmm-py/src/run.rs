@@ -9,6 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
 use ceworld::ce::resume::Peek;
+use ceworld::ce::stepped::SteppedOutcome;
+use ceworld::policy::file::PolicyFile;
 use ceworld::run::{Iteration, RunOptions};
 use ceworld::{Checkpointing, Episodes, Error, Flow, Interrupt};
 
@@ -193,7 +195,18 @@ pub fn run<'py>(
         |w, options| (optimiser.run)(w, &settings, options),
         |(o, _)| o.checkpoint_error.as_deref(),
     )?;
-    let result = crate::results::fields(py, &outcome.ending())?;
+    stepped_result(py, &outcome.ending(), &outcome, file)
+}
+
+/// A stepped optimiser's result as a dict: the fields of `head` (its ending, or a controller
+/// search's summary of it), its history, its policy file and its evaluation.
+pub fn stepped_result<'py>(
+    py: Python<'py>,
+    head: &impl serde::Serialize,
+    outcome: &SteppedOutcome,
+    file: PolicyFile,
+) -> PyResult<Bound<'py, PyDict>> {
+    let result = crate::results::fields(py, head)?;
     result.set_item("history", columns(py, &outcome.history)?)?;
     result.set_item("policy", PyPolicy { file })?;
     result.set_item("evaluation", crate::results::evaluation(py, &outcome.evaluation)?)?;
