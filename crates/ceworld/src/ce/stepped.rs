@@ -118,6 +118,12 @@ pub trait Stepped: Clone + Serialize + DeserializeOwned + Send + Sync {
     ) -> Result<IterationRecord>;
     /// The best policy so far.
     fn policy(&self, world: &dyn Episodes) -> Result<Hhmm>;
+    /// Whether the steps of the world the budget leaves (`left`, as [`Stepped::step`]'s) are too
+    /// few for an iteration to do anything that counts: the run then stops as at the end of its
+    /// budget, instead of iterating on them. Never, unless an optimiser says so.
+    fn spent(&self, _config: &Self::Config, _left: Option<u64>) -> bool {
+        false
+    }
 }
 
 /// A stepped run between two iterations, as checkpoints keep it.
@@ -378,7 +384,8 @@ impl<O: Stepped> Iterations for SteppedIterations<'_, '_, O> {
         let Rules { target, patience, max_iterations, budget, .. } = *self.rules;
         // The target is of the best so far, as the controller search's.
         let rules = StopRules { target, patience, max_iterations, time_limit: budget.time_limit };
-        rules.check(run.history.len(), record.best, run.since, record.seconds + reserve)
+        let spent = run.state.spent(self.config, budget.left(self.world.steps())).then_some(StopReason::MaxEnvSteps);
+        rules.check(run.history.len(), record.best, run.since, record.seconds + reserve).or(spent)
     }
 
     fn closing(&self, _: &IterationRecord) -> Option<(usize, usize)> {

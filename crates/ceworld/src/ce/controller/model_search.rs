@@ -18,9 +18,10 @@
 //! drawn from the laws that did best on its own episodes, the best so far with each decision row
 //! credited by the greedy explorers' steps (model §8's credit within episodes), in the first
 //! iteration the uniform policy, and the best so far are valued on the iteration's selection
-//! episodes, whose steps are kept as the explorers' are; the best of the others replaces the best
-//! so far where it beats it on them by more than their noise ([`incumbent`]), else they add to
-//! its value. A stepped optimiser (`ceworld run
+//! episodes, whose steps are kept as the explorers' are, beside the best so far's contenders:
+//! the one of the highest gain among those that beat the best so far by more than the noise of
+//! their gains, over every iteration both were valued in, replaces it ([`incumbent`]), else they
+//! add to its value and the `confirm` not worse than it contend again. A stepped optimiser (`ceworld run
 //! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 mod explorers;
@@ -46,8 +47,8 @@ use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
 use explorers::{credited_best, explorer};
-pub use incumbent::Incumbent;
-use incumbent::replaces;
+use incumbent::settle;
+pub use incumbent::{Contender, Incumbent};
 use tally::Tally;
 
 /// The settings of the search of memories on the model of every step.
@@ -83,7 +84,8 @@ pub struct ModelSearchConfig {
     /// Backups of the planning and the ranking per step of the longest kept episode (model §10:
     /// where a memory does not hold the time, the model's episodes are spread out in length).
     pub lookahead: usize,
-    /// Plans of each family (tables, lenses) confirmed on the world per iteration.
+    /// Plans of each family (tables, lenses) confirmed on the world per iteration, and contenders
+    /// of the best so far valued again (plans not worse than it, not yet better by the noise).
     pub confirm: usize,
     /// Selection episodes each confirmed plan is valued on.
     pub select_episodes: usize,
@@ -303,6 +305,13 @@ impl Stepped for ModelSearch {
         })
     }
 
+    fn spent(&self, c: &ModelSearchConfig, left: Option<u64>) -> bool {
+        // Once there is a best so far, an iteration counts only where, after one explorer's
+        // episodes (it runs one at least), its selection covers a plan and the best
+        // ([`ModelSearch::confirm`]).
+        self.best.is_some() && self.covered(left) < c.episodes + 2 * c.select_episodes
+    }
+
     fn policy(&self, world: &dyn Episodes) -> Result<Hhmm> {
         let shape = world.shape();
         let best = self.best.as_ref().ok_or_else(|| Error::invalid("model-search", "no iteration has run"))?;
@@ -312,10 +321,10 @@ impl Stepped for ModelSearch {
 
 /// The most controllers an iteration values on its selection episodes: the plans of each family
 /// (`confirm` each), the best explorer, the credited best so far (or, in the first iteration,
-/// the uniform policy) and the best so far.
+/// the uniform policy), the best so far's contenders (`confirm`) and the best so far.
 fn selected(c: &ModelSearchConfig) -> usize {
     let families = if c.window > 0 { 2 } else { 1 };
-    families * c.confirm + 3
+    (families + 1) * c.confirm + 3
 }
 
 /// The episodes of explorer `j` of an iteration: its own, drawn from no other explorer's (where
@@ -514,12 +523,20 @@ impl ModelSearch {
         (controllers * episodes * self.traces.steps()).div_ceil(kept) as u64
     }
 
+    /// The selection episodes the budget in steps `left` covers (of one controller, of the kept
+    /// episodes' mean length; no end without a budget).
+    fn covered(&self, left: Option<u64>) -> usize {
+        let each = self.selection_steps(1, 1).max(1);
+        left.map_or(usize::MAX, |l| usize::try_from(l / each).unwrap_or(usize::MAX))
+    }
+
     /// Values the `confirm` best distinct plans of each family, the `challengers` (the best
-    /// explorer, the credited best so far) and the best so far on the iteration's selection
-    /// episodes (fresh ones, the same for all: `select_episodes`, none where the budget in steps
-    /// `left` would not cover them once there is a best so far, as many as it covers before);
-    /// the best of the others replaces the best so far where it beats it on them by `margin`
-    /// ([`replaces`]; then true), else they add to its value.
+    /// explorer, the credited best so far), the best so far's contenders and the best so far on
+    /// the iteration's selection episodes (fresh ones, the same for all: `select_episodes`, none
+    /// where the budget in steps `left` would not cover them once there is a best so far, as many
+    /// as it covers before); the one of the highest gain among those that beat the best so far by
+    /// `margin` over every episode both were valued on replaces it (then true), else they add to
+    /// its value and the `confirm` not worse than it contend again ([`settle`]).
     #[allow(clippy::too_many_arguments)]
     fn confirm<const F: usize>(
         &mut self,
@@ -547,41 +564,30 @@ impl ModelSearch {
                 }
             }
         }
-        for e in challengers {
+        // The challengers, then the best's contenders (their records go on).
+        let contenders = self.best.iter().flat_map(|b| b.contenders.iter().map(|c| c.controller.clone()));
+        for e in challengers.into_iter().chain(contenders) {
             if !few.contains(&e) && held != Some(&e) {
                 few.push(e);
             }
         }
-        let plans = few.len();
-        few.extend(held.cloned());
-        let each = self.selection_steps(few.len(), 1).max(1);
-        let covered = left().map_or(c.select_episodes, |l| usize::try_from(l / each).unwrap_or(usize::MAX));
-        // Fewer episodes would let a plan replace the best so far on a lucky one or two.
+        // Near the end of a budget in steps, the first plans it covers (all `select_episodes`
+        // each: fewer would let a plan replace the best so far on a lucky one or two).
+        let covered = self.covered(left());
         let m = match held {
-            _ if covered >= c.select_episodes => c.select_episodes,
-            None => covered.max(1),
-            Some(_) => return Ok(false),
+            Some(_) if covered / c.select_episodes < 2 => return Ok(false),
+            Some(_) => {
+                few.truncate(covered / c.select_episodes - 1);
+                c.select_episodes
+            }
+            None => c.select_episodes.min(covered / few.len().max(1)).max(1),
         };
+        few.extend(held.cloned());
         let streams = Streams { seed: c.rules.seed, purpose: Purpose::Select, iteration: iteration as u64 };
         let mut values = vec![0.0; few.len() * m];
         // The selection episodes' steps serve the model too.
         self.run_kept(world, &few, streams, m, &mut values)?;
         self.traces.keep_last(c.memory_steps);
-        let scores: Vec<f64> = values.chunks(m).map(|v| mean(v.iter().copied())).collect();
-        let k = (0..plans).fold(0, |b, i| if scores[i] > scores[b] { i } else { b });
-        let fresh = |k: usize| Incumbent { controller: few[k].clone(), value: scores[k], episodes: m };
-        let on = |k: usize| &values[k * m..(k + 1) * m];
-        match &mut self.best {
-            None if plans > 0 => self.best = Some(fresh(k)),
-            Some(_) if plans > 0 && replaces(on(k), on(plans), c.margin) => self.best = Some(fresh(k)),
-            Some(best) => {
-                let n = best.episodes + m;
-                best.value = (best.value * best.episodes as f64 + scores[plans] * m as f64) / n as f64;
-                best.episodes = n;
-                return Ok(false);
-            }
-            None => return Ok(false),
-        }
-        Ok(true)
+        Ok(settle(&mut self.best, &few, &values, m, c.margin, c.confirm))
     }
 }
