@@ -32,6 +32,16 @@ def test_on_sampled_values_it_is_the_model_search_as_cehmm_run_gives_it() -> Non
     assert (found.env_steps, found.stop_reason) == (ran.env_steps, "max_iterations")
 
 
+def test_its_best_so_far_is_drawn_as_every_search_s() -> None:
+    # The model search's `best` is its best so far (not the best episode of an iteration): it
+    # is the history's `best_so_far` too, which the learning curve draws as the best so far.
+    found = cehmm.optimize_controller(TMaze(corridor=4), nodes=4, **SMALL)
+    assert np.array_equal(found.history["best_so_far"], found.history["best"])
+    lines = {line.get_label(): line for line in found.plot().axes[0].get_lines()}
+    drawn = lines["controller: best so far"].get_ydata()
+    assert np.array_equal(drawn, found.history["best"])
+
+
 def test_search_ce_is_the_cross_entropy_method_over_controllers_on_sampled_values() -> None:
     found = cehmm.optimize_controller(TMaze(corridor=4), search="ce", nodes=2, **SMALL)
     assert found.policy.provenance["method"] == "controller-ce"

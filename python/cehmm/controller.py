@@ -59,7 +59,8 @@ class ControllerResult(Ending):
             iteration), ``seconds`` and ``env_steps`` (int64, sampled values: the world's steps
             learning had taken by the iteration's end, every run together; 0 on exact values).
             The model search's are :class:`cehmm.RunResult`'s: ``iteration``, ``mean`` (its
-            explorers'), ``best`` (the best so far on the selection episodes), ``elite_threshold``
+            explorers'), ``best`` and ``best_so_far`` (both the best so far on the selection
+            episodes), ``elite_threshold``
             and ``elite_mean`` (of the memories ranked on the model), ``successful`` (the best so
             far replaced), ``seconds`` and ``env_steps``.
         stop_reason: why the last run stopped: ``"patience"``, ``"max_iterations"``,

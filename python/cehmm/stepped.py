@@ -33,7 +33,8 @@ class RunResult(Ending):
     Attributes:
         policy: the best policy found, with its provenance (the settings, the method).
         history: one numpy array per statistic, one entry per iteration (``iteration``,
-            ``mean``, ``best``, ``elite_threshold``, ``elite_mean``, ``seconds``,
+            ``mean``, ``best`` and ``best_so_far`` (both the best so far: the optimiser's own
+            value of its best), ``elite_threshold``, ``elite_mean``, ``seconds``,
             ``successful``, ``env_steps``).
         evaluation: :attr:`policy` on fresh episodes.
         stop_reason: ``"patience"``, ``"max_iterations"``, ``"time_limit"``,

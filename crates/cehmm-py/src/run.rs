@@ -207,7 +207,11 @@ pub fn stepped_result<'py>(
     file: PolicyFile,
 ) -> PyResult<Bound<'py, PyDict>> {
     let result = crate::results::fields(py, head)?;
-    result.set_item("history", columns(py, &outcome.history)?)?;
+    let history = columns(py, &outcome.history)?;
+    // A stepped optimiser's `best` is its best so far: also under the name every search's
+    // history gives that (what plots draw as the best so far).
+    history.set_item("best_so_far", history.get_item("best")?)?;
+    result.set_item("history", history)?;
     result.set_item("policy", PyPolicy { file })?;
     result.set_item("evaluation", crate::results::evaluation(py, &outcome.evaluation)?)?;
     Ok(result)
