@@ -112,7 +112,7 @@ fn a_memory_is_learnt_from_every_step_within_a_small_budget() {
     assert_eq!(outcome.stop, StopReason::MaxEnvSteps);
     // The explorers leave the selection the steps it takes, and the selection takes no more
     // episodes than are left: past the budget by at most one explorer's episodes (an iteration
-    // runs one at least), where an iteration's selection alone takes 12 · 10 episodes; and the
+    // runs one at least), where an iteration's selection alone takes 9 · 10 episodes; and the
     // run ends where what is left would not value a plan and the best so far on their 10 each.
     let (explorer, selection) = (4 * HORIZON as u64, 2 * 10 * HORIZON as u64);
     let spent = outcome.env_steps;

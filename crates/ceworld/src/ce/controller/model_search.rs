@@ -21,7 +21,8 @@
 //! episodes, whose steps are kept as the explorers' are, beside the best so far's contenders:
 //! the one of the highest gain among those that beat the best so far by more than the noise of
 //! their gains, over every iteration both were valued in, replaces it ([`incumbent`]), else they
-//! add to its value and the `confirm` not worse than it contend again. A stepped optimiser (`ceworld run
+//! add to its value and the one of the highest gain not below 0 contends again, in the place of a
+//! fresh plan. A stepped optimiser (`ceworld run
 //! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
 mod explorers;
@@ -84,8 +85,8 @@ pub struct ModelSearchConfig {
     /// Backups of the planning and the ranking per step of the longest kept episode (model §10:
     /// where a memory does not hold the time, the model's episodes are spread out in length).
     pub lookahead: usize,
-    /// Plans of each family (tables, lenses) confirmed on the world per iteration, and contenders
-    /// of the best so far valued again (plans not worse than it, not yet better by the noise).
+    /// Plans of each family (tables, lenses) confirmed on the world per iteration (the best so
+    /// far's contender takes the place of one).
     pub confirm: usize,
     /// Selection episodes each confirmed plan is valued on.
     pub select_episodes: usize,
@@ -320,12 +321,15 @@ impl Stepped for ModelSearch {
 }
 
 /// The most controllers an iteration values on its selection episodes: the plans of each family
-/// (`confirm` each), the best explorer, the credited best so far (or, in the first iteration,
-/// the uniform policy), the best so far's contenders (`confirm`) and the best so far.
+/// (`confirm` each; the best so far's contender in the place of one), the best explorer, the
+/// credited best so far (or, in the first iteration, the uniform policy) and the best so far.
 fn selected(c: &ModelSearchConfig) -> usize {
     let families = if c.window > 0 { 2 } else { 1 };
-    (families + 1) * c.confirm + 3
+    families * c.confirm + 3
 }
+
+/// Contenders the best so far keeps: each is valued again in the place of a fresh plan.
+const CONTENDERS: usize = 1;
 
 /// The episodes of explorer `j` of an iteration: its own, drawn from no other explorer's (where
 /// the explorers shared the same episodes, as the controllers valued against each other do, the
@@ -536,7 +540,7 @@ impl ModelSearch {
     /// where the budget in steps `left` would not cover them once there is a best so far, as many
     /// as it covers before); the one of the highest gain among those that beat the best so far by
     /// `margin` over every episode both were valued on replaces it (then true), else they add to
-    /// its value and the `confirm` not worse than it contend again ([`settle`]).
+    /// its value and the one of the highest gain not below 0 contends again ([`settle`]).
     #[allow(clippy::too_many_arguments)]
     fn confirm<const F: usize>(
         &mut self,
@@ -550,22 +554,32 @@ impl ModelSearch {
     ) -> Result<bool> {
         let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
-        for plans in families {
-            let mut taken = 0;
-            for p in plans {
-                if taken == c.confirm {
-                    break;
+        let contenders: Vec<Controller> =
+            self.best.iter().flat_map(|b| b.contenders.iter().map(|c| c.controller.clone())).collect();
+        // The families take turns, `confirm` plans each at most, the contenders taking the last
+        // places: an iteration values as many controllers with them as without.
+        let room = (F * c.confirm).saturating_sub(contenders.len());
+        let mut families = families.map(|plans| (plans.into_iter(), 0));
+        while few.len() < room {
+            let before = few.len();
+            for (plans, taken) in &mut families {
+                if *taken == c.confirm || few.len() == room {
+                    continue;
                 }
                 // Ranked on half the steps, planned on all of them.
-                let controller = p.memory.plan(sizes, &self.traces, c, &p.act);
-                if !few.contains(&controller) && held != Some(&controller) {
+                let next = plans
+                    .map(|p| p.memory.plan(sizes, &self.traces, c, &p.act))
+                    .find(|controller| !few.contains(controller) && held != Some(controller));
+                if let Some(controller) = next {
                     few.push(controller);
-                    taken += 1;
+                    *taken += 1;
                 }
+            }
+            if few.len() == before {
+                break;
             }
         }
         // The challengers, then the best's contenders (their records go on).
-        let contenders = self.best.iter().flat_map(|b| b.contenders.iter().map(|c| c.controller.clone()));
         for e in challengers.into_iter().chain(contenders) {
             if !few.contains(&e) && held != Some(&e) {
                 few.push(e);
@@ -588,6 +602,6 @@ impl ModelSearch {
         // The selection episodes' steps serve the model too.
         self.run_kept(world, &few, streams, m, &mut values)?;
         self.traces.keep_last(c.memory_steps);
-        Ok(settle(&mut self.best, &few, &values, m, c.margin, c.confirm))
+        Ok(settle(&mut self.best, &few, &values, m, c.margin, CONTENDERS))
     }
 }

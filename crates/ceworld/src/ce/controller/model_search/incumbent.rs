@@ -124,10 +124,11 @@ fn crowned(
     Incumbent { controller: few[k].clone(), value: mean(values.iter().copied()), episodes: values.len(), contenders }
 }
 
-/// The `keep` records of the highest mean gain not below 0, the earlier first among equals.
+/// The `keep` records of the highest mean gain not below 0; among equal gains, those of more
+/// episodes (the surer), then the earlier.
 fn kept(mut records: Vec<Contender>, keep: usize) -> Vec<Contender> {
     records.retain(|r| r.gain() >= 0.0);
-    records.sort_by(|p, q| q.gain().total_cmp(&p.gain()));
+    records.sort_by(|p, q| q.gain().total_cmp(&p.gain()).then(q.values.len().cmp(&p.values.len())));
     records.truncate(keep);
     records
 }
@@ -193,6 +194,20 @@ mod tests {
         // Without the first iteration's record, the second alone would not have told.
         let mut fresh = Some(Incumbent { controller: few[1].clone(), value: 1.0, episodes: 4, contenders: vec![] });
         assert!(!settle(&mut fresh, &few, &[1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0], 4, 1.0, 3));
+    }
+
+    #[test]
+    fn among_equal_gains_the_surer_contends() {
+        // The contender, level with the best over eight episodes, is level again; a fresh plan
+        // is level on these four: the one place goes to the contender.
+        let few = controllers(3);
+        let earlier = Contender { controller: few[1].clone(), values: vec![1.0; 8], held: vec![1.0; 8] };
+        let mut best =
+            Some(Incumbent { controller: few[2].clone(), value: 1.0, episodes: 8, contenders: vec![earlier] });
+        assert!(!settle(&mut best, &few, &[1.0; 12], 4, 1.0, 1));
+        let held = best.unwrap();
+        assert_eq!(held.contenders.len(), 1);
+        assert_eq!((held.contenders[0].controller.clone(), held.contenders[0].values.len()), (few[1].clone(), 12));
     }
 
     #[test]
