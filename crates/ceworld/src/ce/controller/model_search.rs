@@ -25,6 +25,7 @@
 //! fresh plan. A stepped optimiser (`ceworld run
 //! model-search`, `cehmm.run`): budgets, checkpoints, progress and backends come from the spine.
 
+mod candidate;
 mod explorers;
 mod incumbent;
 mod tally;
@@ -35,7 +36,6 @@ use serde::{Deserialize, Serialize};
 use super::config::Template;
 use super::laws::Laws;
 use super::lens::{Lens, Sizes};
-use super::model::{AgentModel, replay};
 use crate::ce::record::IterationRecord;
 use crate::ce::stepped::{Rules, Stepped};
 use crate::episodes::credit::StepCredit;
@@ -47,6 +47,7 @@ use crate::policy::Hhmm;
 use crate::policy::controller::Controller;
 use crate::rng::{EngineRng, Purpose, stream};
 use crate::settings::{Setting, Settings};
+use candidate::{Memory, Plan};
 use explorers::{credited_best, explorer};
 use incumbent::settle;
 pub use incumbent::{Contender, Incumbent};
@@ -337,74 +338,6 @@ const CONTENDERS: usize = 1;
 /// `MultiarmedBanditEasy`, four sets of arms an iteration).
 fn explorer_streams(seed: u64, iteration: usize, j: usize) -> Streams {
     Streams { seed, purpose: Purpose::Controllers, iteration: (iteration as u64) << 32 | j as u64 }
-}
-
-/// A candidate memory: a successor table (its `next`), a lens or a tally.
-#[derive(Clone, Debug, PartialEq)]
-enum Memory {
-    Table(Vec<u32>),
-    Lens(Lens),
-    Tally(Tally),
-}
-
-impl Memory {
-    /// Agent states.
-    fn states(&self, sizes: Sizes) -> usize {
-        match self {
-            Memory::Table(next) => next.len() / sizes.y,
-            Memory::Lens(lens) => lens.states(sizes),
-            Memory::Tally(tally) => tally.states(sizes),
-        }
-    }
-
-    /// The agent state of every kept step, and how many states there are.
-    fn replay(&self, sizes: Sizes, traces: &Traces) -> (Vec<u32>, usize) {
-        let states = match self {
-            Memory::Table(next) => replay(next, sizes.y, traces),
-            Memory::Lens(lens) => lens.replay(sizes, traces),
-            Memory::Tally(tally) => tally.replay(sizes, traces),
-        };
-        (states, self.states(sizes))
-    }
-
-    /// The controller that decides `act[s]` in agent state `s`.
-    fn controller(&self, act: Vec<u32>, sizes: Sizes) -> Controller {
-        match self {
-            Memory::Table(next) => Controller::moore(act, next.clone()),
-            Memory::Lens(lens) => lens.controller(&act, sizes),
-            Memory::Tally(tally) => tally.controller(&act, sizes),
-        }
-    }
-
-    /// Plans on the model of the kept episodes of one parity and values the plan on the model
-    /// of the others (a memory of many states fits its own steps well and is valued on others);
-    /// a state never reached decides as `fallback`.
-    fn rank(&self, sizes: Sizes, traces: &Traces, c: &ModelSearchConfig, fallback: &[u32]) -> Plan {
-        let (states, n) = self.replay(sizes, traces);
-        let [fit, held_out] = [0, 1].map(|h| AgentModel::fit(&states, n, sizes.a, traces, Some(h)));
-        let backups = c.lookahead.saturating_mul(held_out.longest.max(fit.longest));
-        let planned = fit.plan(traces.gamma, backups, c.pessimism, fallback);
-        let value = held_out.evaluate(&planned.act, traces.gamma, backups);
-        Plan { memory: self.clone(), act: planned.act, value }
-    }
-
-    /// The controller planned on the model of every kept episode.
-    fn plan(&self, sizes: Sizes, traces: &Traces, c: &ModelSearchConfig, fallback: &[u32]) -> Controller {
-        let (states, n) = self.replay(sizes, traces);
-        let model = AgentModel::fit(&states, n, sizes.a, traces, None);
-        let backups = c.lookahead.saturating_mul(model.longest);
-        self.controller(model.plan(traces.gamma, backups, c.pessimism, fallback).act, sizes)
-    }
-}
-
-/// A memory with the decisions planned on half the kept episodes, and their value on the model
-/// of the other half.
-#[derive(Clone, Debug, PartialEq)]
-struct Plan {
-    memory: Memory,
-    /// The decision of each agent state.
-    act: Vec<u32>,
-    value: f64,
 }
 
 impl ModelSearch {
