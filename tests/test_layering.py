@@ -6,7 +6,8 @@ and the compiled module imports nothing of the Python package (it only translate
 Layers, lowest first (a module is placed by the longest prefix of its path listed here):
 
 0. the base: ``error``, ``rng``, ``files``, ``memory``, ``control``, ``settings``
-1. the policy and the file reader: ``policy`` (but ``policy::file``), ``world::cassandra``
+1. the policy and the file readers: ``policy`` (but ``policy::file``), ``world::cassandra``,
+   ``world::pomdpx``
 2. the worlds: ``world``
 3. where episodes come from and the policy files that record a world: ``episodes``,
    ``policy::file``
@@ -41,6 +42,7 @@ LAYERS: dict[str, int] = {
     "settings": 0,
     "policy": 1,
     "world::cassandra": 1,
+    "world::pomdpx": 1,
     "world": 2,
     "episodes": 3,
     "policy::file": 3,

@@ -157,6 +157,18 @@ def test_tigers_five_node_controller_reaches_the_sarsop_value(tiger: cehmm.Pomdp
     assert len(stochastic["nodes"]) == 2 and stochastic["nodes"][0]["decision"]["listen"] == pytest.approx(1 / 3)
 
 
+def test_appls_pomdpx_tiger_is_tiger_95(tiger: cehmm.PomdpWorld) -> None:
+    """APPL's factored XML Tiger, flattened: tiger.95's tables, so every policy's exact value."""
+    tiger_x = cehmm.PomdpWorld.from_file(DATA.parent / "pomdpx" / "Tiger.pomdpx", horizon=20)
+    assert tiger_x.states == tiger.states and tiger_x.actions == tiger.actions
+    assert tiger_x.observations == ["obs-left", "obs-right"]
+    for table in ("transition", "observation", "reward", "start"):
+        np.testing.assert_array_equal(getattr(tiger_x, table), getattr(tiger, table))
+    value = listen_twice(tiger_x).evaluate_exact(infinite=True, tolerance=1e-9).value
+    assert value == pytest.approx(listen_twice(tiger).evaluate_exact(infinite=True, tolerance=1e-9).value, abs=1e-12)
+    assert value == pytest.approx(19.3714, abs=1e-4)
+
+
 @pytest.mark.skipif(sys.platform == "win32" or sys.getfilesystemencoding() != "utf-8", reason="POSIX byte paths")
 def test_a_path_that_is_not_utf8_is_refused_by_name(tmp_path: Path) -> None:
     # It raised UnicodeEncodeError (as a str with surrogates) or TypeError (as bytes); a world's

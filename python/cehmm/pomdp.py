@@ -1,4 +1,4 @@
-"""Tabular POMDPs read from Cassandra ``.pomdp`` files (model §7)."""
+"""Tabular POMDPs read from Cassandra ``.pomdp`` files and APPL ``.pomdpx`` files (model §7)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,11 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 class PomdpWorld(World):
-    """A tabular POMDP read from a Cassandra ``.pomdp`` file (model §7).
+    """A tabular POMDP read from a Cassandra ``.pomdp`` file or an APPL ``.pomdpx`` file (model §7).
+
+    A ``.pomdpx`` file (told by its content: an XML document) is flattened: a state is a value of
+    every state variable, named by the values joined with ``_`` (an action, an observation
+    likewise); a fully observed state variable is part of the observation.
 
     An observation follows each action and none precedes the first: at ``t = 1`` the world
     emits the start symbol ``len(observations)``, so a policy sees ``len(observations) + 1``
@@ -28,8 +32,8 @@ class PomdpWorld(World):
     evaluated on another model by mistake.
 
     Raises:
-        ModelFormatError: the file is not a valid ``.pomdp`` file (the message names the line and
-            column, what was found and what was expected).
+        ModelFormatError: the file is not a valid ``.pomdp`` or ``.pomdpx`` file (the message names
+            the line and column, what was found and what was expected).
         OSError: the file cannot be read.
 
     Example:
@@ -58,7 +62,7 @@ class PomdpWorld(World):
     def from_file(
         cls, path: PathLike, horizon: int = 100, discount: float | None = None, reward: str = "sampled"
     ) -> PomdpWorld:
-        """The world of the ``.pomdp`` file ``path`` with episodes of ``horizon`` steps."""
+        """The world of the ``.pomdp`` or ``.pomdpx`` file ``path`` with episodes of ``horizon`` steps."""
         return cls(path, horizon=horizon, discount=discount, reward=reward)
 
     def _tables(self) -> dict[str, Any]:
@@ -70,7 +74,7 @@ class PomdpWorld(World):
 
     @property
     def file(self) -> str:
-        """The ``.pomdp`` file, as given."""
+        """The ``.pomdp`` or ``.pomdpx`` file, as given."""
         return self.params["file"]
 
     @property

@@ -1,8 +1,12 @@
 //! The tabular POMDP world (model §7) on real files: its conventions, sampling against exact
 //! evaluation, exact values computed by hand, and the registry's identity of a model file.
 
+#[path = "common/tiger.rs"]
+mod tiger;
+
 use ceworld::exact::{finite_horizon, infinite_horizon};
-use ceworld::{AnyWorld, Error, Hhmm, Layout, PomdpWorld, World, evaluate, random_policy};
+use ceworld::{AnyWorld, Error, PomdpWorld, World, evaluate, random_policy};
+use tiger::reactive;
 
 fn data(name: &str) -> String {
     format!("{}/../../data/pomdp/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -10,21 +14,6 @@ fn data(name: &str) -> String {
 
 fn tiger(horizon: usize) -> PomdpWorld {
     PomdpWorld::from_file(data("tiger.95.POMDP"), horizon, None).unwrap()
-}
-
-/// A memoryless policy (levels `[M]`) on tiger: `node[y]` the memory state of each observation
-/// (`y = 2` the start symbol), `action[m]` the action of each memory state.
-fn reactive(node: [usize; 3], action: &[usize]) -> Hhmm {
-    let m = action.len();
-    let layout = Layout::new(3, 3, &[m]).unwrap();
-    let mut probs = vec![0.0; layout.len];
-    for (k, &a) in action.iter().enumerate() {
-        probs[k * 3 + a] = 1.0;
-    }
-    for (y, &k) in node.iter().enumerate() {
-        probs[3 * m + y * m + k] = 1.0;
-    }
-    Hhmm::from_flat(layout, probs).unwrap()
 }
 
 const LISTEN: usize = 0;

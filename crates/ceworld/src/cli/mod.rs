@@ -147,8 +147,8 @@ pub(crate) struct WorldArgs {
     /// observed (default: the world's, 3; the exact optimum is known for case 1).
     #[arg(long)]
     case: Option<u8>,
-    /// A tabular POMDP read from this Cassandra .pomdp file (the world `pomdp`, model §7); its
-    /// policy files record the file's SHA-256.
+    /// A tabular POMDP read from this file, Cassandra's .pomdp or APPL's .pomdpx (the world
+    /// `pomdp`, model §7); its policy files record the file's SHA-256.
     #[arg(long, value_name = "FILE.pomdp", conflicts_with_all = ["world", "case"])]
     pomdp: Option<PathBuf>,
     /// Steps per episode (the parameter `horizon`).

@@ -5,6 +5,7 @@ use crate::rng::EngineRng;
 
 pub mod cassandra;
 pub mod pomdp;
+pub mod pomdpx;
 pub mod registry;
 pub mod session;
 pub mod tracking;

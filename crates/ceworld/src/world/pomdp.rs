@@ -1,4 +1,5 @@
-//! A tabular POMDP world read from a Cassandra `.pomdp` file (model §7).
+//! A tabular POMDP world read from a Cassandra `.pomdp` file or an APPL `.pomdpx` file, flattened
+//! (model §7).
 //!
 //! An observation follows each action and none precedes the first: at `t = 1` the world emits
 //! the start symbol `|O|`, so a policy sees `|O| + 1` observations. The episode's reward is
@@ -130,7 +131,7 @@ impl PomdpWorld {
     /// it and builds the sampling tables.
     pub fn with_params(params: PomdpParams) -> Result<PomdpWorld> {
         if params.file.is_empty() {
-            return Err(Error::invalid("pomdp.file", "\"\" (expected the path of a .pomdp file)"));
+            return Err(Error::invalid("pomdp.file", "\"\" (expected the path of a .pomdp or .pomdpx file)"));
         }
         if params.horizon == 0 || params.horizon > 1_000_000 {
             return Err(Error::invalid("pomdp.horizon", format!("{} (expected 1..=1000000)", params.horizon)));
@@ -152,7 +153,13 @@ impl PomdpWorld {
             )));
         }
         let options = Options { max_entries: MAX_DENSE_ENTRIES, ..Options::default() };
-        let pomdp = parse_bytes(&bytes, &options).map_err(|mut e| {
+        // An XML document is APPL's factored `.pomdpx`, flattened; any other text Cassandra's.
+        let parsed = if crate::world::pomdpx::looks_like_pomdpx(&bytes) {
+            crate::world::pomdpx::parse_bytes(&bytes, &options)
+        } else {
+            parse_bytes(&bytes, &options)
+        };
+        let pomdp = parsed.map_err(|mut e| {
             e.file = Some(params.file.clone());
             Error::ModelFormat(e.to_string())
         })?;

@@ -41,7 +41,7 @@ mod model;
 mod parse;
 mod preamble;
 mod reward;
-mod validate;
+pub(crate) mod validate;
 
 pub use error::ParseError;
 pub use model::{Options, Pomdp, RewardEntry, Values};
