@@ -296,3 +296,54 @@ fn a_margin_out_of_its_domain_is_refused() {
         assert!(matches!(e, Error::InvalidArgument { ref name, .. } if name == "margin"), "{e}");
     }
 }
+
+/// Click every cell once: `CELLS` cells, the first observation a blank (2); a cell clicked for the
+/// first time pays 1 and shows 1, one clicked again pays −1 and shows 0; as many steps as cells.
+struct Clicks {
+    seen: Vec<Vec<bool>>,
+}
+
+const CELLS: usize = 5;
+
+impl BatchWorld for Clicks {
+    fn shape(&self) -> Shape {
+        Shape { observations: 3, decisions: CELLS, horizon: CELLS }
+    }
+    fn description(&self) -> Value {
+        json!({"name": "outside", "class": "tests.Clicks"})
+    }
+    fn max_batch(&self) -> usize {
+        64
+    }
+    fn reset(&mut self, _seed: u64, observations: &mut [i64]) -> ceworld::Result<()> {
+        self.seen = vec![vec![false; CELLS]; observations.len()];
+        observations.fill(2);
+        Ok(())
+    }
+    fn step(&mut self, decisions: &[i64], out: StepOut<'_>) -> ceworld::Result<()> {
+        for (i, &d) in decisions.iter().enumerate() {
+            let fresh = !std::mem::replace(&mut self.seen[i][d as usize], true);
+            out.rewards[i] = if fresh { 1.0 } else { -1.0 };
+            out.observations[i] = i64::from(u8::from(fresh));
+        }
+        Ok(())
+    }
+    fn additive(&self) -> bool {
+        true
+    }
+    fn score(&mut self, episode: &Recorded<'_>) -> ceworld::Result<f64> {
+        Ok(episode.rewards.iter().sum())
+    }
+}
+
+#[test]
+fn the_model_of_pairs_clicks_every_cell_once_the_same_on_any_threads() {
+    let clicks = Lockstep::new(Clicks { seen: Vec::new() }).unwrap();
+    let run = |threads: usize| {
+        let c = ModelSearchConfig { pairs: true, ..config(3000, threads) };
+        run_stepped::<ModelSearch>(&clicks, &c, None, |_| Flow::Continue).unwrap()
+    };
+    let (one, two) = (run(1), run(2));
+    assert_eq!(one.evaluation.mean, CELLS as f64, "{:?}", one.history);
+    assert_eq!((one.policy, one.evaluation.mean), (two.policy, two.evaluation.mean));
+}

@@ -14,7 +14,10 @@
 //! half, the best `rho` refitting the laws; and every lens of at most `lens_features` features
 //! ([`Lens`]: lags of the last `window` observations and decisions, the first observation) and
 //! every tally ([`Tally`]: counts of each value of a part of the observations) planned and valued
-//! the same way, as one family. (3) Confirms: the `confirm` best plans of each family, the explorer
+//! the same way, as one family; and, where `pairs`, the machine of the model of pairs ([`Pairs`]:
+//! what each decision brings at once after each earlier decision and what followed it), which
+//! decides one step ahead. (3) Confirms: the model of pairs' machine, the `confirm` best plans of
+//! each family (the machine in the place of one of them), the explorer
 //! drawn from the laws that did best on its own episodes, the best so far with each decision row
 //! credited by the greedy explorers' steps (model §8's credit within episodes), in the first
 //! iteration the uniform policy, and the best so far are valued on the iteration's selection
@@ -28,6 +31,7 @@
 mod candidate;
 mod explorers;
 mod incumbent;
+mod pairs;
 mod tally;
 
 use rayon::prelude::*;
@@ -51,6 +55,7 @@ use candidate::{Memory, Plan};
 use explorers::{credited_best, explorer};
 use incumbent::settle;
 pub use incumbent::{Contender, Incumbent};
+use pairs::Pairs;
 use tally::Tally;
 
 /// The settings of the search of memories on the model of every step.
@@ -103,6 +108,10 @@ pub struct ModelSearchConfig {
     pub lens_features: usize,
     /// Nodes of a lens's or a tally's machine, at most.
     pub lens_nodes: usize,
+    /// Whether each iteration confirms the machine of the model of pairs ([`Pairs`]) in the place
+    /// of one of the families' plans (off by default: model §10, *The model of pairs*).
+    #[serde(default)]
+    pub pairs: bool,
     /// Stop rules, budgets, seed, threads and final evaluation ([`Rules`]).
     #[serde(flatten)]
     pub rules: Rules,
@@ -132,6 +141,7 @@ impl Default for ModelSearchConfig {
             window: 8,
             lens_features: 3,
             lens_nodes: 1024,
+            pairs: false,
             rules: Rules::default(),
         }
     }
@@ -161,6 +171,7 @@ impl Settings for ModelSearchConfig {
             "window" => self.window = s.count()?,
             "lens_features" => self.lens_features = s.count()?,
             "lens_nodes" => self.lens_nodes = s.count()?,
+            "pairs" => self.pairs = s.flag()?,
             name if Rules::owns(name) => self.rules.set(s)?,
             other => return Err(self.unknown(other)),
         }
@@ -293,7 +304,10 @@ impl Stepped for ModelSearch {
         let sizes = Sizes::of(shape, &world.description());
         let (tables, elite) = self.search(sizes, c, &mut rng);
         let lenses = self.lenses(sizes, shape.horizon, c);
-        let successful = self.confirm(world, c, iteration, sizes, [tables, lenses], challengers, left)?;
+        // The model of pairs' machine (within the lenses' budget of nodes), first of the plans.
+        let fitted = c.pairs.then(|| Pairs::fit(shape.observations, shape.decisions, &self.traces)).flatten();
+        let pairs = fitted.map(|m| m.machine(c.lens_nodes));
+        let successful = self.confirm(world, c, iteration, sizes, pairs, [tables, lenses], challengers, left)?;
         let best = self.best.as_ref().map_or(f64::NEG_INFINITY, |b| b.value);
         Ok(IterationRecord {
             iteration,
@@ -322,7 +336,8 @@ impl Stepped for ModelSearch {
 }
 
 /// The most controllers an iteration values on its selection episodes: the plans of each family
-/// (`confirm` each; the best so far's contender in the place of one), the best explorer, the
+/// (`confirm` each; the model of pairs' machine and the best so far's contender in the place of
+/// one), the best explorer, the
 /// credited best so far (or, in the first iteration, the uniform policy) and the best so far.
 fn selected(c: &ModelSearchConfig) -> usize {
     let families = if c.window > 0 { 2 } else { 1 };
@@ -467,7 +482,8 @@ impl ModelSearch {
         left.map_or(usize::MAX, |l| usize::try_from(l / each).unwrap_or(usize::MAX))
     }
 
-    /// Values the `confirm` best distinct plans of each family, the `challengers` (the best
+    /// Values `first` (planned apart), then the `confirm` best distinct plans of each family in
+    /// the places left, the `challengers` (the best
     /// explorer, the credited best so far), the best so far's contenders and the best so far on
     /// the iteration's selection episodes (fresh ones, the same for all: `select_episodes`, none
     /// where the budget in steps `left` would not cover them once there is a best so far, as many
@@ -481,12 +497,13 @@ impl ModelSearch {
         c: &ModelSearchConfig,
         iteration: usize,
         sizes: Sizes,
+        first: Option<Controller>,
         families: [Vec<Plan>; F],
         challengers: Vec<Controller>,
         left: &dyn Fn() -> Option<u64>,
     ) -> Result<bool> {
-        let mut few: Vec<Controller> = Vec::new();
         let held = self.best.as_ref().map(|b| &b.controller);
+        let mut few: Vec<Controller> = first.into_iter().filter(|f| held != Some(f)).collect();
         let contenders: Vec<Controller> =
             self.best.iter().flat_map(|b| b.contenders.iter().map(|c| c.controller.clone())).collect();
         // The families take turns, `confirm` plans each at most, the contenders taking the last
