@@ -11,6 +11,7 @@
 //! selection episodes and the controller returned is valued on fresh ones.
 
 mod bounds;
+mod chain;
 pub mod checkpoint;
 pub mod config;
 mod laws;
@@ -35,6 +36,7 @@ use crate::evaluate::mean;
 pub use crate::policy::controller::Controller;
 use crate::rng::{Purpose, restart_seed, stream};
 use bounds::check_policy_fits;
+pub use chain::Scratch;
 pub use config::{
     ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
 };
@@ -43,7 +45,7 @@ use memory::ALTERNATE_SHARES;
 pub use outcome::{ControllerIteration, ControllerOutcome, ControllerSummary};
 use selection::{Scores, Valuation, kept_values};
 use value::Seen;
-pub use value::{ControllerValue, Scratch, Valued};
+pub use value::{ControllerValue, Valued};
 
 use crate::ce::iterations::{Ended, Iterations, Watch, iterate_run};
 use crate::ce::resume::{Checkpointing, Clock, Saver};

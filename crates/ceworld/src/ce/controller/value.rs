@@ -3,11 +3,11 @@
 
 use crate::episodes::{Episodes, Remote};
 use crate::error::{Error, Result};
-use crate::exact::MAX_STEPS;
 use crate::policy::controller::Controller;
 use crate::world::World;
 use crate::world::pomdp::PomdpWorld;
 
+use super::chain::{Factored, Scratch};
 use super::config::ValueKind;
 
 /// The world of a controller search and how its controllers are valued.
@@ -61,40 +61,14 @@ impl Valued<'_> {
     }
 }
 
-/// Exact values of controllers on one world.
-///
-/// A controller's value is the value of the Markov chain it makes of the world, over the
-/// (state, node) pairs it can reach from the start ([`Scratch`] numbers them in the order they
-/// are met, and merges the outcomes that lead to the same pair): at a finite horizon by as many
-/// sweeps of backward induction; in the infinite horizon by Jacobi sweeps with the bounds of
-/// `MacQueen` (1966). After a sweep `x' = r + γPx`, with `Δ = x' − x`, every value lies in
-/// `x' + γ/(1 − γ)·[min Δ, max Δ]` (`P` is stochastic), so the sweeps stop once half that
-/// interval is within the tolerance, and the value is its middle. Where the rewards make `Δ`
-/// even (a controller that listens forever) one sweep gives the exact value; two controllers
-/// that act alike on what they reach get the same value, bit for bit, however their nodes are
-/// numbered.
+/// Exact values of controllers on one world: the value of the Markov chain each makes of the
+/// world ([`super::chain`]).
 pub struct ControllerValue<'a> {
     world: &'a PomdpWorld,
+    factored: Factored,
     /// `None`: infinite horizon, to `tolerance`.
     horizon: Option<usize>,
     tolerance: f64,
-}
-
-/// Scratch space of [`ControllerValue::value`], reused from one controller to the next.
-#[derive(Clone, Debug, Default)]
-pub struct Scratch {
-    /// `1 +` the number of pair `(s, q)` at `s·n + q`; 0 where not reached.
-    index: Vec<u32>,
-    /// The reached pairs `(s, q)`, in the order met.
-    pairs: Vec<(u32, u32)>,
-    /// Each pair's expected immediate reward.
-    reward: Vec<f64>,
-    /// Each pair's successors `to[row[i]..row[i + 1]]`, with their probabilities `prob`.
-    row: Vec<usize>,
-    to: Vec<u32>,
-    prob: Vec<f64>,
-    v: Vec<f64>,
-    w: Vec<f64>,
 }
 
 impl<'a> ControllerValue<'a> {
@@ -102,7 +76,7 @@ impl<'a> ControllerValue<'a> {
     /// its horizon.
     pub fn new(world: &'a PomdpWorld, tolerance: f64) -> ControllerValue<'a> {
         let horizon = (world.tables().gamma >= 1.0).then(|| world.horizon());
-        ControllerValue { world, horizon, tolerance }
+        ControllerValue { world, factored: Factored::new(world.tables()), horizon, tolerance }
     }
 
     /// The values of `controllers`, in parallel (on the current thread pool).
@@ -121,95 +95,7 @@ impl<'a> ControllerValue<'a> {
         } else {
             c
         };
-        let gamma = t.gamma;
-        let first = c.next[t.n_observations()];
-        self.reach(c, scratch);
-        let Scratch { index, pairs, reward, row, to, prob, v, w } = scratch;
-        let m = pairs.len();
-        v.clear();
-        v.resize(m, 0.0);
-        w.clear();
-        w.resize(m, 0.0);
-        let (sweeps, factor) = match self.horizon {
-            Some(h) => (h, 0.0),
-            None => (MAX_STEPS, gamma / (1.0 - gamma)),
-        };
-        let mut shift = 0.0;
-        for _ in 0..sweeps {
-            let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
-            for i in 0..m {
-                let future: f64 = (row[i]..row[i + 1]).map(|e| prob[e] * v[to[e] as usize]).sum();
-                let x = reward[i] + gamma * future;
-                let change = x - v[i];
-                low = low.min(change);
-                high = high.max(change);
-                w[i] = x;
-            }
-            std::mem::swap(v, w);
-            if self.horizon.is_none() {
-                shift = factor * (low + high) / 2.0;
-                if factor * (high - low) / 2.0 <= self.tolerance {
-                    break;
-                }
-            }
-        }
-        let n = c.nodes();
-        let value = t
-            .start
-            .iter()
-            .enumerate()
-            .filter(|&(_, &p)| p > 0.0)
-            .map(|(s, &p)| p * v[index[s * n + first as usize] as usize - 1])
-            .sum::<f64>();
-        value + shift
-    }
-
-    /// Numbers the pairs `c` reaches from the start and lays out their rows (see [`Scratch`]).
-    fn reach(&self, c: &Controller, scratch: &mut Scratch) {
-        let t = self.world.tables();
-        let (n, y1) = (c.nodes(), t.n_observations() + 1);
-        let Scratch { index, pairs, reward, row, to, prob, .. } = scratch;
-        index.clear();
-        index.resize(t.n_states() * n, 0);
-        pairs.clear();
-        reward.clear();
-        row.clear();
-        row.push(0);
-        to.clear();
-        prob.clear();
-        let mut number = |s: u32, q: u32, pairs: &mut Vec<(u32, u32)>| {
-            let slot = &mut index[s as usize * n + q as usize];
-            if *slot == 0 {
-                pairs.push((s, q));
-                *slot = pairs.len() as u32;
-            }
-            *slot - 1
-        };
-        let first = c.next[y1 - 1];
-        for (s, &p) in t.start.iter().enumerate() {
-            if p > 0.0 {
-                number(s as u32, first, pairs);
-            }
-        }
-        let mut i = 0;
-        while i < pairs.len() {
-            let (s, q) = (pairs[i].0 as usize, pairs[i].1 as usize);
-            let a = c.act[q] as usize;
-            reward.push(t.expected_reward(s, a));
-            let start = to.len();
-            for j in t.outcomes(s, a) {
-                let (s2, o) = t.next[j];
-                let k = number(s2, c.next[q * y1 + o as usize], pairs);
-                if let Some(at) = to[start..].iter().position(|&x| x == k) {
-                    prob[start + at] += t.prob[j];
-                } else {
-                    to.push(k);
-                    prob.push(t.prob[j]);
-                }
-            }
-            row.push(to.len());
-            i += 1;
-        }
+        scratch.value(t, &self.factored, c, self.horizon, self.tolerance)
     }
 }
 
