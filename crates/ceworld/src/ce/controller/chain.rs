@@ -5,8 +5,9 @@
 //! order they are met. A step from `(s, q)` goes through an after-state `(s', q)` (the world has
 //! moved, the observation is not yet drawn) and then to `(s', q')`, `q'` the node after `q` on
 //! the observation: `P = T · O`, kept as the two factors (`T(s'|s,a)` and `O(o|a,s')` apart), so
-//! a step costs the successors of `T` plus those of `O`, not their product (hallway: 9 and 5
-//! against 46 a pair).
+//! a step costs the successors of `T` plus those of `O`, not their product (hallway's random
+//! 32-node controller: about 4 a pair and 12 an after-state against 46 a pair), where that is
+//! fewer entries ([`Factored`]; elsewhere the world's outcomes are kept).
 //!
 //! In the infinite horizon the value solves `(I − γP) x = r`, held to the bounds of `MacQueen`
 //! (1966): after a sweep `x' = r + γPx`, with `Δ = x' − x`, every value lies in `x' + γ/(1 −
