@@ -163,10 +163,10 @@ impl Scratch {
         let (n, y1, n_s, n_a) = (c.nodes(), t.n_observations() + 1, t.n_states(), t.n_actions());
         self.direct = !f.pays;
         let Scratch { index, after_index, pairs, reward, row, to, prob, after_row, after_to, after_prob, .. } = self;
-        for v in [&mut *index, &mut *after_index] {
-            v.clear();
-            v.resize(n_s * n, 0);
-        }
+        index.clear();
+        index.resize(n_s * n, 0);
+        after_index.clear();
+        after_index.resize(if f.pays { n_s * n } else { 0 }, 0);
         pairs.clear();
         reward.clear();
         for v in [&mut *row, &mut *after_row] {
@@ -198,7 +198,24 @@ impl Scratch {
             let (s, q) = (pairs[i].0 as usize, pairs[i].1 as usize);
             let a = c.act[q] as usize;
             reward.push(t.expected_reward(s, a));
-            if !f.pays {
+            if f.pays {
+                for e in f.t_row[s * n_a + a]..f.t_row[s * n_a + a + 1] {
+                    let s2 = f.t_to[e];
+                    let slot = &mut after_index[s2 as usize * n + q];
+                    if *slot == 0 {
+                        // A new after-state: its row now, the pairs it reaches numbered.
+                        let start = after_to.len();
+                        for k in f.o_row[a * n_s + s2 as usize]..f.o_row[a * n_s + s2 as usize + 1] {
+                            let to_pair = number(s2, c.next[q * y1 + f.o_of[k] as usize], index, pairs);
+                            merge(after_to, after_prob, start, to_pair, f.o_prob[k]);
+                        }
+                        after_row.push(after_to.len());
+                        *slot = (after_row.len() - 1) as u32;
+                    }
+                    to.push(*slot - 1);
+                    prob.push(f.t_prob[e]);
+                }
+            } else {
                 // The world's outcomes, merged where they lead to one pair.
                 let start = to.len();
                 for k in t.outcomes(s, a) {
@@ -206,25 +223,6 @@ impl Scratch {
                     let to_pair = number(s2, c.next[q * y1 + o as usize], index, pairs);
                     merge(to, prob, start, to_pair, t.prob[k]);
                 }
-                row.push(to.len());
-                i += 1;
-                continue;
-            }
-            for e in f.t_row[s * n_a + a]..f.t_row[s * n_a + a + 1] {
-                let s2 = f.t_to[e];
-                let slot = &mut after_index[s2 as usize * n + q];
-                if *slot == 0 {
-                    // A new after-state: its row now, the pairs it reaches numbered.
-                    let start = after_to.len();
-                    for k in f.o_row[a * n_s + s2 as usize]..f.o_row[a * n_s + s2 as usize + 1] {
-                        let to_pair = number(s2, c.next[q * y1 + f.o_of[k] as usize], index, pairs);
-                        merge(after_to, after_prob, start, to_pair, f.o_prob[k]);
-                    }
-                    after_row.push(after_to.len());
-                    *slot = (after_row.len() - 1) as u32;
-                }
-                to.push(*slot - 1);
-                prob.push(f.t_prob[e]);
             }
             row.push(to.len());
             i += 1;
@@ -254,6 +252,15 @@ impl Scratch {
         }
     }
 
+    /// One sweep from `x` into `x` (its old values left in `next`) under the bounds of `MacQueen`:
+    /// half the bounds' interval and their middle, the shift to add to each value.
+    fn bounded_sweep(&mut self, gamma: f64, x: &mut Vec<f64>, next: &mut Vec<f64>) -> (f64, f64) {
+        let factor = gamma / (1.0 - gamma);
+        let (low, high) = self.sweep(gamma, x, next);
+        std::mem::swap(x, next);
+        (factor * (high - low) / 2.0, factor * (low + high) / 2.0)
+    }
+
     /// One sweep `next = r + γPx`; returns the least and the greatest of `next − x`.
     fn sweep(&mut self, gamma: f64, x: &[f64], next: &mut [f64]) -> (f64, f64) {
         self.step(x, next);
@@ -272,14 +279,11 @@ impl Scratch {
     /// the bounds' last ratio foresees more than [`SWEEPS_BEFORE_GRADIENTS`] sweeps to go, at most
     /// `most` steps of the gradients, then sweeps again from their answer.
     fn solve(&mut self, gamma: f64, tolerance: f64, vectors: &mut [Vec<f64>; 7], most: usize) -> f64 {
-        let factor = gamma / (1.0 - gamma);
         let (mut last, mut tried, mut shift) = (f64::INFINITY, most == 0, 0.0);
         for k in 0..MAX_STEPS {
             let [x, next, ..] = &mut *vectors;
-            let (low, high) = self.sweep(gamma, x, next);
-            std::mem::swap(x, next);
-            let half = factor * (high - low) / 2.0;
-            shift = factor * (low + high) / 2.0;
+            let half;
+            (half, shift) = self.bounded_sweep(gamma, x, next);
             if half <= tolerance {
                 break;
             }
@@ -306,9 +310,8 @@ impl Scratch {
         let [x, next, res, rhat, p, v, s] = vectors;
         // The answer `x` holds where one sweep from it moves every value alike, to the tolerance.
         let check = |me: &mut Scratch, x: &mut Vec<f64>, next: &mut Vec<f64>| {
-            let (low, high) = me.sweep(gamma, x, next);
-            std::mem::swap(x, next);
-            (factor * (high - low) / 2.0 <= tolerance).then_some(factor * (low + high) / 2.0)
+            let (half, shift) = me.bounded_sweep(gamma, x, next);
+            (half <= tolerance).then_some(shift)
         };
         let apply = |me: &mut Scratch, from: &[f64], to: &mut [f64]| {
             me.step(from, to);
