@@ -173,3 +173,33 @@ def test_the_committed_table_is_what_the_committed_data_gives() -> None:
     # A fresh clone rebuilds docs/benchmarks.md from docs/data/benchmarks.jsonl, byte for byte.
     root = Path(__file__).resolve().parents[1]
     assert _run("--report-only", "--check", "--out", str(root / "docs")).returncode == 0
+
+
+def test_the_anchors_run_each_model_once_and_rebuild_the_page(tmp_path: Path) -> None:
+    from cehmm.benchmarks import anchors
+
+    args = ["--files", "tiger.95", "Tiger", "RockSample_7_8", "--time-limit", "2", "--out", str(tmp_path)]
+    assert anchors.main(args) == 0
+    records = [json.loads(line) for line in (tmp_path / "data" / "anchors.jsonl").read_text().splitlines()]
+    by_model = {r["model"]: r for r in records}
+    assert set(by_model) == {"tiger.95.POMDP", "Tiger.pomdpx", "RockSample_7_8.pomdpx"}
+    # The .pomdpx copy of tiger takes tiger.95's references and reaches the same optimum.
+    for name in ("tiger.95.POMDP", "Tiger.pomdpx"):
+        r = by_model[name]
+        assert r["reference"] == "tiger.95" and r["sarsop"]["lb"] == pytest.approx(19.3711)
+        assert r["value"] == pytest.approx(19.3714, abs=1e-3) and r["start"]["kept"]
+    assert "too large" in by_model["RockSample_7_8.pomdpx"]["refused"]
+    page = (tmp_path / "benchmarks.md").read_text()
+    assert page.startswith(TITLE + "\n") and "## The controller search beside SARSOP and PAYNT" in page
+    assert "| Tiger.pomdpx (the model of tiger.95.POMDP) | 2/3/2 | 19.3711 |" in page
+    # A cell already there is not run again; the page is rebuilt from the data alone.
+    (tmp_path / "benchmarks.md").unlink()
+    assert anchors.main([*args, "--report-only"]) == 0 and (tmp_path / "benchmarks.md").read_text() == page
+    assert anchors.main(args) == 0
+    assert len((tmp_path / "data" / "anchors.jsonl").read_text().splitlines()) == len(records)
+
+
+def test_paynts_values_are_read_from_sources() -> None:
+    paynt = benchmarks.files.parse_paynt((DATA / "SOURCES.md").read_text())
+    assert paynt["4x3.95"]["value"] == pytest.approx(1.8524) and paynt["4x3.95"]["size"] == 36
+    assert set(paynt) == {"4x3.95", "network", "1d", "4x4.95", "mini-hall2"}

@@ -22,6 +22,22 @@ def tiger() -> cehmm.PomdpWorld:
     return cehmm.PomdpWorld.from_file(DATA / "tiger.95.POMDP", horizon=100)
 
 
+def test_the_result_says_what_the_model_start_was(tiger: cehmm.PomdpWorld) -> None:
+    result = cehmm.optimize_controller(tiger, max_iterations=1, progress=False)
+    start = result.start
+    assert start is not None and set(start) == {"built", "value", "nodes", "blind", "kept"}
+    # Tiger's point-based controller is its optimum already (SARSOP [19.3711, 19.3721]); the
+    # best blind policy listens for ever: -1 / (1 - 0.95).
+    assert start["kept"] and start["nodes"] == result.policy.levels[-1]
+    assert start["built"] == pytest.approx(19.3714, abs=1e-3) and start["value"] >= start["built"]
+    assert start["blind"] == pytest.approx(-20.0, abs=1e-6)
+    assert result.value >= start["value"]
+    assert result.policy.provenance["model_start"] == start
+    assert cehmm.optimize_controller(tiger, max_iterations=1, model_nodes=0, progress=False).start is None
+    sampled = cehmm.optimize_controller(TMaze(corridor=2), max_iterations=1, seed=0, progress=False)
+    assert sampled.start is None
+
+
 def test_tiger_reaches_the_sarsop_value_with_an_exact_value(tiger: cehmm.PomdpWorld) -> None:
     result = cehmm.optimize_controller(tiger, nodes=5, progress=False)
     # SARSOP's bounds are [19.3713, 19.3714] (data/pomdp/SOURCES.md).

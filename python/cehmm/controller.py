@@ -71,6 +71,11 @@ class ControllerResult(Ending):
             search: the last that replaced its best so far).
         restart: the run that found it.
         run_values: the best value of each run (exact, or on the selection episodes).
+        start: the model start on a discounted tabular world (``model_nodes``): the controller
+            built from the world's point-based values, then improved node by node (docs/model.md
+            §8), as ``{"built", "value", "nodes", "blind", "kept"}``: its exact value as built,
+            once improved, its nodes, the best blind policy's exact value and whether it beat
+            that (the search then started around it); ``None`` where none was built.
         seconds: wall time.
         env_steps: sampled values: the world's steps learning took (selection included).
         eval_env_steps: sampled values: the world's steps of :attr:`evaluation`.
@@ -92,6 +97,7 @@ class ControllerResult(Ending):
     best_iteration: int
     restart: int
     run_values: list[float]
+    start: dict[str, Any] | None
 
     def plot(self, x: str = "iteration") -> Any:
         """Its learning curve (:func:`cehmm.plots.learning_curve`): a matplotlib figure."""

@@ -407,14 +407,20 @@ fn the_model_start_is_never_lost_and_sets_the_nodes() {
         .controller(&w, 64, config.seed);
     let start = value(&w, &built, 1e-6);
     let found = optimize_controller(Valued::Exact(&w), &config, |_| Flow::Continue).unwrap();
-    // One iteration: the controller built from the model is among its draws.
-    assert!(found.value >= start, "{} < {start}", found.value);
+    // One iteration: the controller built from the model, improved node by node, is among its
+    // draws; the result says what it was.
+    let facts = found.start.expect("a model start");
+    assert_eq!(facts.built.to_bits(), start.to_bits());
+    assert!(facts.kept && facts.value >= facts.built && facts.blind < facts.value);
+    assert!(found.value >= facts.value, "{} < {}", found.value, facts.value);
     assert_eq!(found.policy.levels(), [built.nodes(), built.nodes()]);
+    assert_eq!(facts.nodes, built.nodes());
     assert!(start > 1.8, "{start} (SARSOP's lower bound: 1.8899)");
     // Without it, the nodes asked and uniform laws.
     let without = ControllerConfig { model_nodes: 0, ..config };
     let found = optimize_controller(Valued::Exact(&w), &without, |_| Flow::Continue).unwrap();
     assert_eq!(found.policy.levels(), [3, 3]);
+    assert_eq!(found.start, None);
     assert!(found.value < start);
 }
 

@@ -23,8 +23,11 @@ The package, one concept a module (each imports only those above it):
 - :mod:`~cehmm.benchmarks.job`: one job and its record;
 - :mod:`~cehmm.benchmarks.run`: the jobs, serially or in worker processes, progress lines, Ctrl-C;
 - :mod:`~cehmm.benchmarks.summary`: best controllers, ratios, the "what this shows" paragraph;
-- :mod:`~cehmm.benchmarks.report`: the markdown page;
-- :mod:`~cehmm.benchmarks.cli`: the command line (:func:`main`).
+- :mod:`~cehmm.benchmarks.anchors_report`: the page's section on the controller search beside SARSOP and PAYNT;
+- :mod:`~cehmm.benchmarks.report`: the markdown page (that section first, then the grid);
+- :mod:`~cehmm.benchmarks.cli`: the command line (:func:`main`);
+- :mod:`~cehmm.benchmarks.anchors`: its own command, ``python -m cehmm.benchmarks.anchors``: every discounted model
+  with a reference searched with the controller search's defaults (``--time-limit 600`` on one core).
 """
 
 from __future__ import annotations

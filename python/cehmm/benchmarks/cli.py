@@ -17,7 +17,7 @@ from ..reproduce.records import append_record, read_records
 from ..reproduce.text import _fmt_duration
 from . import config
 from .files import file_facts, find_files, parse_sarsop
-from .report import render_report
+from .report import page_text, write_page
 from .run import run_jobs
 
 #: The command as its records write it (``cehmm benchmarks`` is the same; help and errors name
@@ -110,7 +110,7 @@ def _report_only(args: argparse.Namespace, prog: str) -> int:
     if not any(r.get("record") == "file" for r in records):
         print(f"{prog}: error: {jsonl} has no records; run without --report-only first", file=sys.stderr)
         return 2
-    text = render_report(records)
+    text = page_text(args.out)
     if args.check:
         if (report.read_text() if report.exists() else None) != text:
             print(f"{report} is not what {jsonl} gives: run {prog} --report-only", file=sys.stderr)
@@ -195,6 +195,6 @@ def main(argv: Sequence[str] | None = None, prog: str = PROG) -> int:
         print(f"interrupted: {outcome.finished} job(s) finished and kept in {jsonl}", file=sys.stderr, flush=True)
     if outcome.failed:
         print(f"{len(outcome.failed)} job(s) failed:\n  " + "\n  ".join(outcome.failed), file=sys.stderr, flush=True)
-    write_text(report, render_report(read_records(jsonl)))
+    write_page(args.out)
     print(f"wrote {report} ({_fmt_duration(time.perf_counter() - start)})", flush=True)
     return 130 if outcome.stopping else (1 if outcome.failed else 0)

@@ -87,6 +87,23 @@ def parse_sarsop(sources: str) -> dict[str, dict[str, Any]]:
     return table
 
 
+def parse_paynt(sources: str) -> dict[str, dict[str, Any]]:
+    """PAYNT/SAYNT's controller values from the table of SOURCES.md's "Controller values from PAYNT/SAYNT
+    logs": lower-cased file stem -> ``{"value", "size", "run", "source"}``."""
+    section = re.search(r"(?ms)^## Controller values from PAYNT.*?(?=^## |\Z)", sources)
+    table: dict[str, dict[str, Any]] = {}
+    for line in section.group(0).splitlines() if section else []:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if not line.lstrip().startswith("|") or len(cells) < 5:
+            continue
+        try:
+            value, size = float(cells[1].replace("\u2212", "-")), int(cells[2])
+        except ValueError:  # the header and the separator
+            continue
+        table[cells[0].lower()] = {"value": value, "size": size, "run": cells[3], "source": cells[4]}
+    return table
+
+
 def refusal_text(error: Exception, path: Path) -> str:
     """The reader's message with the file's path shortened to its name (``ejs7.POMDP:22:1: ...``)."""
     message = str(error)

@@ -96,6 +96,13 @@ fn search_in(world: &dyn Episodes, args: &ControllerArgs) -> Result<()> {
         }
         (None, _) => format!("exact value at the horizon {:.6}", outcome.value),
     };
+    if let Some(s) = &outcome.start {
+        let fate = if s.kept { "kept: the runs start around it" } else { "not kept: it does not beat that" };
+        println!(
+            "model start: {} nodes, exact value {:.6} ({:.6} before its nodes were improved; the best blind policy {:.6}); {fate}",
+            s.nodes, s.value, s.built, s.blind
+        );
+    }
     if outcome.run_values.len() > 1 {
         // The first runs' values (all of them are in the policy file's provenance).
         const SHOWN: usize = 10;

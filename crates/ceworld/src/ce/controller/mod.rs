@@ -14,6 +14,7 @@ mod bounds;
 mod chain;
 pub mod checkpoint;
 pub mod config;
+mod improve;
 mod laws;
 pub mod lens;
 mod memory;
@@ -40,9 +41,10 @@ pub use chain::Scratch;
 pub use config::{
     ControllerConfig, Credit, Decisions, MAX_ITERATION_EPISODES, MAX_RESTARTS, MAX_SAMPLES, Memory, Template, ValueKind,
 };
+pub use improve::improve;
 use laws::Laws;
 use memory::ALTERNATE_SHARES;
-pub use outcome::{ControllerIteration, ControllerOutcome, ControllerSummary};
+pub use outcome::{ControllerIteration, ControllerOutcome, ControllerSummary, Start};
 use selection::{Scores, Valuation, kept_values};
 use value::Seen;
 pub use value::{ControllerValue, Valued};
@@ -94,11 +96,13 @@ pub fn optimize_controller_observed(
     }
     let shape = world.episodes().shape();
     let (n_actions, y1) = (shape.decisions, shape.observations);
-    let start = match world {
+    let built = match world {
         Valued::Exact(w) => model_start(w, config),
         Valued::ExactElsewhere(_, remote) => remote.model().and_then(|w| model_start(w, config)),
         Valued::Sampled(_) => None,
     };
+    let start_facts = built.as_ref().map(|(_, facts)| *facts);
+    let start = built.and_then(|(controller, facts)| facts.kept.then_some(controller));
     // The policy must fit before the search (its size known once the model start is).
     check_policy_fits(start.as_ref(), config, y1, n_actions)?;
     if let Valued::Sampled(_) = world {
@@ -137,6 +141,7 @@ pub fn optimize_controller_observed(
     let stop = chosen.stop(&saver.state.finished, |r| r.stop);
     let mut outcome = ControllerOutcome::of_runs(&runs, best, stop, world.kind(), (y1, n_actions))?;
     outcome.env_steps = metered.steps();
+    outcome.start = start_facts;
     if let Valued::Sampled(w) = world {
         // The final evaluation's steps are counted apart.
         let evaluated = Metered::new(w, 0);

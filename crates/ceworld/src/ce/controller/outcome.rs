@@ -51,6 +51,23 @@ pub struct ControllerIteration {
     pub widened: bool,
 }
 
+/// The model start of a search on a discounted tabular world (`model_nodes`, model §8): the
+/// controller built from the world's model, whether the search kept it or not.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Start {
+    /// The exact value of the controller the point-based values make (model §8).
+    pub built: f64,
+    /// Its exact value once improved node by node (`ce::controller::improve`).
+    pub value: f64,
+    /// Its nodes.
+    pub nodes: usize,
+    /// The best blind policy's exact value ("always `a`"), which it must beat to be kept.
+    pub blind: f64,
+    /// Whether it beat the best blind policy by the tolerance: the search then starts around it
+    /// and values it first, so that it returns nothing worse.
+    pub kept: bool,
+}
+
 /// The outcome of a controller search.
 #[derive(Clone, Debug)]
 pub struct ControllerOutcome {
@@ -85,6 +102,8 @@ pub struct ControllerOutcome {
     pub env_steps: u64,
     /// Sampled values: the world's steps of `evaluation`, counted apart.
     pub eval_env_steps: u64,
+    /// The model start, where one was built (this session's: it is built again on resume).
+    pub start: Option<Start>,
 }
 
 /// What the controller search's result says beside its policy, history and evaluation
@@ -104,6 +123,8 @@ pub struct ControllerSummary {
     pub restart: usize,
     /// The best value of each run, in order.
     pub run_values: Vec<f64>,
+    /// The model start, where one was built ([`ControllerOutcome::start`]).
+    pub start: Option<Start>,
 }
 
 impl ControllerSummary {
@@ -119,6 +140,7 @@ impl ControllerSummary {
             best_iteration,
             restart: 0,
             run_values: outcome.history.last().map(|r| r.best).into_iter().collect(),
+            start: None,
         }
     }
 }
@@ -140,6 +162,7 @@ impl ControllerOutcome {
             best_iteration: self.best_iteration,
             restart: self.restart,
             run_values: self.run_values.clone(),
+            start: self.start,
         }
     }
 
@@ -168,6 +191,7 @@ impl ControllerOutcome {
             checkpoint_error: None,
             env_steps: 0,
             eval_env_steps: 0,
+            start: None,
         })
     }
 
@@ -180,6 +204,7 @@ impl ControllerOutcome {
             ("restart", json!(self.restart)),
             ("run_values", json!(self.run_values)),
             ("best_iteration", json!(self.best_iteration)),
+            ("model_start", json!(self.start)),
         ] {
             map.insert(key.into(), value);
         }

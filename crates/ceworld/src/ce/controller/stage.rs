@@ -1,8 +1,9 @@
 //! The memoryless stage (model §8): where a search's memory starts once the best memoryless
 //! policy is known.
 
+use super::improve::improve;
 use super::laws::Laws;
-use super::{Controller, ControllerConfig, ControllerValue, Scratch, Search, Values};
+use super::{Controller, ControllerConfig, ControllerValue, Scratch, Search, Start, Values};
 use crate::ce::budget::Groups;
 use crate::episodes::Streams;
 use crate::error::Result;
@@ -113,12 +114,14 @@ impl Search<'_> {
 }
 
 /// The model start (`model_nodes`, discounted worlds): the controller built from `world`'s
-/// model, where its exact value beats every blind policy's ("always `a`").
-pub(super) fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<Controller> {
+/// model, improved node by node ([`improve`]), and its exact value, kept where that beats every
+/// blind policy's ("always `a`").
+pub(super) fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Option<(Controller, Start)> {
     if config.model_nodes == 0 || world.tables().gamma >= 1.0 {
         return None;
     }
-    let solved = PointBased::solve(world, Budget::within(config.budget.time_limit), config.seed);
+    let budget = Budget::within(config.budget.time_limit);
+    let solved = PointBased::solve(world, budget, config.seed);
     let built = solved.controller(world, config.model_nodes, config.seed);
     let values = ControllerValue::new(world, config.tolerance);
     let mut scratch = Scratch::default();
@@ -126,5 +129,9 @@ pub(super) fn model_start(world: &PomdpWorld, config: &ControllerConfig) -> Opti
     let blind = (0..world.tables().n_actions() as u32)
         .map(|a| values.value(&Controller::moore(vec![a], vec![0; y1]), &mut scratch))
         .fold(f64::NEG_INFINITY, f64::max);
-    (values.value(&built, &mut scratch) > blind + config.tolerance).then_some(built)
+    let built_value = values.value(&built, &mut scratch);
+    let (improved, value) = improve(world, &built, config.tolerance, budget.work);
+    let start =
+        Start { built: built_value, value, nodes: improved.nodes(), blind, kept: value > blind + config.tolerance };
+    Some((improved, start))
 }
