@@ -62,6 +62,7 @@ SHORTER: list[tuple[str, str, str]] = [
     ),
     ("--jobs 2 --time-limit 6", "--jobs 2 --time-limit 0.2 --quick", "an hour"),
     ("benchmarks.memory --jobs 2 ", "benchmarks.memory --quick --methods random model-search ", "hours"),
+    ("benchmarks.anchors --jobs 2 ", "benchmarks.anchors --files tiger.95 --time-limit 1 ", "hours"),
     ("benches/controller_speed.py ", "benches/controller_speed.py --iterations 1 --repeats 1 ", "a minute"),
 ]
 

@@ -33,7 +33,7 @@ def _row(r: dict[str, Any]) -> str:
         fate = "" if start["kept"] else " (not kept)"
         started = f"{_num(start['built'])} → {_num(start['value'])}{fate}"
     share = _share(r["value"], lb)
-    shown = _num(share, 3) if share is not None else (f"{r['value'] - lb:+.2f}" if lb is not None else "–")
+    shown = _num(share, 3) if share is not None else (f"Δ {r['value'] - lb:+.2f}" if lb is not None else "–")
     paynt_text = f"{_num(paynt['value'])} ({paynt['size']})" if paynt else "–"
     s, a, o = r["sizes"]
     load = "–" if r.get("load") is None else f"{r['load']:.1f}"
@@ -51,7 +51,8 @@ def _findings(rows: list[dict[str, Any]]) -> str:
     started_low = [r for r in valued if r.get("start") and r["start"]["value"] < REACHED * r["sarsop"]["lb"]]
     raised = [r["model"] for r in started_low if r["value"] > r["start"]["value"]]
     return (
-        f"Of the {len(valued)} models with a positive SARSOP lower bound, {len(reached)} reach {REACHED:g} of it"
+        f"Of the {len(valued)} searches (a model at a time limit) with a positive SARSOP lower bound, {len(reached)} "
+        f"reach {REACHED:g} of it"
         + (f"; below: {', '.join(below)}" if below else "")
         + f". The start (the point-based controller, then improved node by node) is below {REACHED:g} of the bound on "
         f"{len(started_low)}, and the search after it raised {len(raised)} of them"
@@ -84,7 +85,7 @@ def render_anchors(records: list[dict[str, Any]]) -> list[str]:
         "whether it beat every blind policy (else the search starts from uniform laws). SARSOP LB is SARSOP's lower "
         "bound (data/pomdp/SOURCES.md: the value of SARSOP's own policy); PAYNT is the value of PAYNT/SAYNT's "
         "controller read from that tool's logs, with its size (twice the memory summed over observations, not "
-        "nodes; SOURCES.md). × LB is the value over the bound where the bound is positive, else the difference. "
+        "nodes; SOURCES.md). × LB is the value over the bound where the bound is positive, else the difference (Δ). "
         "The `.pomdpx` files are APPL's examples read as they are (data/pomdpx/SOURCES.md). s is the seconds "
         "the search took of its limit; load the machine's load average (one minute) as it started: above 1 a "
         "core, the search shared its core and its seconds bought less.",
