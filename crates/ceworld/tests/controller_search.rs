@@ -3,7 +3,9 @@
 //! brute force on a tiny problem, determinism, restarts, interruption and bad settings.
 
 use ceworld::ce::budget::Budget;
-use ceworld::ce::controller::{Controller, ControllerConfig, ControllerValue, Scratch, Valued, optimize_controller};
+use ceworld::ce::controller::{
+    Controller, ControllerConfig, ControllerValue, Scratch, Valued, improve, optimize_controller,
+};
 use ceworld::exact::{finite_horizon, infinite_horizon};
 use ceworld::rng::{Purpose, stream};
 use ceworld::{Error, Flow, PomdpWorld, StopReason};
@@ -516,4 +518,35 @@ fn the_time_limit_holds_the_final_evaluation_of_sampled_values_too() {
     assert_eq!(out.stop, StopReason::TimeLimit);
     assert!(evaluation.episodes > 0 && evaluation.episodes < 10_000_000, "{evaluation:?}");
     assert!(wall < 1.5 && out.seconds < 1.5, "{wall} s, {} s", out.seconds);
+}
+
+#[test]
+fn an_improved_controller_is_valued_exactly_and_never_lower() {
+    for (name, n) in [("tiger.95.POMDP", 3), ("4x3.95.POMDP", 6), ("cheese.95.POMDP", 4), ("network.POMDP", 4)] {
+        let w = world(name, 100, None);
+        for k in 0..3 {
+            let c = random_controller(&w, n, k);
+            let (better, found) = improve(&w, &c, 1e-6, 1e9);
+            better.check(w.tables().n_observations() + 1, w.tables().n_actions()).unwrap();
+            assert_eq!(better.nodes(), n, "{name} {k}");
+            assert_eq!(found.to_bits(), value(&w, &better, 1e-6).to_bits(), "{name} {k}");
+            assert!(found >= value(&w, &c, 1e-6), "{name} {k}: {found} < {}", value(&w, &c, 1e-6));
+            // Deterministic: the same controller again.
+            assert_eq!(improve(&w, &c, 1e-6, 1e9).0, better, "{name} {k}");
+        }
+    }
+}
+
+#[test]
+fn the_point_based_controller_of_tiger_grid_is_improved_and_the_work_stops_it() {
+    use ceworld::pointbased::{Budget as Work, PointBased};
+    let w = world("tiger-grid.POMDP", 100, None);
+    let built = PointBased::solve(&w, Work { work: 1e9, ..Work::default() }, 0).controller(&w, 32, 0);
+    let before = value(&w, &built, 1e-6);
+    let (_, after) = improve(&w, &built, 1e-6, 1e10);
+    // SARSOP's lower bound: 2.2708 (data/pomdp/SOURCES.md).
+    assert!(after > before + 0.05, "{before} -> {after}");
+    // No work allowed: the controller as it was.
+    let (same, found) = improve(&w, &built, 1e-6, 0.0);
+    assert_eq!((same, found.to_bits()), (built, before.to_bits()));
 }
