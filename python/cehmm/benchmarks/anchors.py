@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import datetime as _dt
 import multiprocessing
-import os
 import sys
 import time
 from collections.abc import Sequence
@@ -30,7 +29,7 @@ from typing import Any
 import cehmm
 
 from .._files import MAX_TEXT_BYTES, read_bytes
-from ..reproduce.machine import machine_info, source_commit
+from ..reproduce.machine import load, machine_text, source_commit
 from ..reproduce.records import append_record, read_records
 from .anchors_report import ANCHORS_JSONL
 from .config import DEFAULT_DATA_DIR, DEFAULT_OUT
@@ -52,10 +51,9 @@ SAME_MODEL: dict[str, tuple[str, str]] = {
 }
 
 
-def models(data_dir: Path, pomdpx_dir: Path) -> list[tuple[Path, str]]:
-    """``(path, reference stem)``: the discounted ``.pomdp`` files SARSOP has bounds for, by name,
-    then the ``.pomdpx`` files."""
-    sarsop = _references(data_dir)[0]
+def models(data_dir: Path, pomdpx_dir: Path, sarsop: dict[str, Any]) -> list[tuple[Path, str]]:
+    """``(path, reference stem)``: the discounted ``.pomdp`` files that ``sarsop`` has bounds for,
+    by name, then the ``.pomdpx`` files."""
     found: list[tuple[Path, str]] = []
     for path in sorted(data_dir.glob("*"), key=lambda p: p.name.lower()):
         key = stem(path.name).lower()
@@ -83,7 +81,7 @@ def run_cell(path: str, time_limit: float, seed: int) -> dict[str, Any]:
         world = cehmm.PomdpWorld.from_file(path)
     except cehmm.CehmmError as e:
         return {**record, "refused": str(e).replace(str(path), name)}
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
+    beside = load()
     started = time.perf_counter()
     found = cehmm.optimize_controller(world, time_limit=time_limit, threads=1, seed=seed, progress=False)
     return {
@@ -99,7 +97,7 @@ def run_cell(path: str, time_limit: float, seed: int) -> dict[str, Any]:
         "best_iteration": found.best_iteration,
         "start": found.start,
         "stop": found.stop_reason,
-        "load": load,
+        "load": beside,
     }
 
 
@@ -129,7 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(f"--time-limit must be positive and --jobs at least 1 (got {args.time_limit:g} and {args.jobs})")
     data = args.out / "data" / ANCHORS_JSONL
     sarsop, paynt = _references(args.data_dir)
-    every = models(args.data_dir, args.pomdpx_dir)
+    every = models(args.data_dir, args.pomdpx_dir, sarsop)
     if args.files:
         wanted = {f.lower() for f in args.files}
         every = [
@@ -142,7 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.report_only:
         done = {(r["model"], r["time_limit"], r["seed"]) for r in read_records(data)}
         todo = [str(path) for path, _ in every if (path.name, args.time_limit, args.seed) not in done]
-        stamp = {"commit": source_commit(), "date": _dt.date.today().isoformat(), "machine": _machine_text()}
+        stamp = {"commit": source_commit(), "date": _dt.date.today().isoformat(), "machine": machine_text()}
         print(f"{len(todo)} model(s), {args.time_limit:g} s each, {args.jobs} at a time; data {data}", flush=True)
         for found in _run_all(todo, args.time_limit, args.seed, args.jobs):
             key = next(k for path, k in every if path.name == found["model"])
@@ -154,11 +152,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             append_record(data, found)
     write_page(args.out)
     return 0
-
-
-def _machine_text() -> str:
-    m = machine_info()
-    return f"{m['cores']} cores, {m['cpu']}"
 
 
 if __name__ == "__main__":

@@ -46,7 +46,7 @@ import numpy as np
 import cehmm
 
 from ..memory_tasks import TMaze
-from ..reproduce.machine import machine_info, source_commit
+from ..reproduce.machine import machine_text, source_commit
 from ..reproduce.records import append_record, read_records
 from .memory_report import write_page
 
@@ -266,7 +266,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.report_only:
         done = {(r["task"], r["method"], r["budget"], r["seed"]) for r in records if "task" in r}
         todo = jobs(names, args.methods, budgets, seeds, done)
-        stamp = {"commit": source_commit(), "date": _dt.date.today().isoformat(), "machine": _machine_text()}
+        stamp = {"commit": source_commit(), "date": _dt.date.today().isoformat(), "machine": machine_text()}
         for found in _run_all(todo, args.episodes, args.jobs):
             for record in found:
                 record = {**record, **stamp}
@@ -292,11 +292,6 @@ def _run_all(todo: list[tuple[str, str, str, int]], episodes: int, workers: int)
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         for future in as_completed([pool.submit(run_cell, *job, episodes) for job in todo]):
             yield future.result()
-
-
-def _machine_text() -> str:
-    m = machine_info()
-    return f"{m['cores']} cores, {m['cpu']}"
 
 
 if __name__ == "__main__":

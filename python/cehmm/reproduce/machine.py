@@ -27,6 +27,12 @@ def machine_info() -> dict[str, Any]:
     }
 
 
+def machine_text() -> str:
+    """The machine in a few words, as the benchmarks' records give it: ``"2 cores, CPU"``."""
+    m = machine_info()
+    return f"{m['cores']} cores, {m['cpu']}"
+
+
 def source_commit() -> str:
     """The git commit of the code that runs (``-dirty`` when tracked files differ from it), or
     ``"unknown"`` outside a git checkout."""
@@ -48,7 +54,7 @@ def source_commit() -> str:
         return "unknown"
 
 
-def _load() -> float | None:
+def load() -> float | None:
     """The 1-minute load average (other work on the machine slows the jobs down)."""
     try:
         return round(os.getloadavg()[0], 2)

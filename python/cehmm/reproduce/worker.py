@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from .jobs import job_stem
-from .machine import _load
+from .machine import load
 from .records import compact_history
 
 _IN_JOB = False
@@ -113,5 +113,5 @@ def run_job(job: dict[str, Any]) -> dict[str, Any]:
         "command": job["command"],
         "machine": job["machine"],
         "version": cehmm.__version__,
-        "load": _load(),
+        "load": load(),
     }

@@ -4,12 +4,14 @@
 //!
 //! With `V(q, s)` the controller's value from node `q` in state `s` and `w(q, s)` its discounted
 //! occupancy from the start (how much of the value is earned in `(s, q)`), node `q`'s row is
-//! rewritten to maximise `Σ_s w(q, s) [r(s, a) + γ Σ_{s', y} T(s'|s, a) O(y|a, s') V(σ(y), s')]`
-//! over its decision `a` and its successor `σ(y)` after each observation `y`: the successor that
-//! is best for the mix of states the node stands for, as in Hansen's policy iteration for
-//! controllers, without adding nodes. The weighted score is a guide, not a guarantee (the other
-//! nodes' values were computed with the old row), so each new row is kept only where the
-//! controller's exact value from the start rises by more than the tolerance.
+//! scored `Σ_s w(q, s) [r(s, a) + γ Σ_{s', y} T(s'|s, a) O(y|a, s') V(σ(y), s')]` for each
+//! decision `a`, with its successor `σ(y)` after each observation `y` the best for the mix of
+//! states the node stands for, and with the node's own successors kept, as in Hansen's policy
+//! iteration for controllers, without adding nodes. A row's score over the present row's is the
+//! first-order gain of the start's value (the performance difference); the rows are tried
+//! largest gain first. The score is a guide, not a guarantee (the other nodes' values were
+//! computed with the old row), so a new row is kept only where the controller's exact value from
+//! the start rises by more than the tolerance, one a pass.
 
 use super::{ControllerValue, Scratch};
 use crate::policy::controller::Controller;
@@ -83,49 +85,65 @@ fn occupancy(t: &Tables, c: &Controller, guide: f64, w: &mut Vec<f64>) -> usize 
     SWEEPS
 }
 
-/// The score of node `q`'s row `(a, σ)` for the weights `w` of its states: its expected reward
-/// and discounted value after each observation, with `σ` the node's successors `kept` or (with
-/// `choose`) the best for each observation that can follow (the others keep theirs);
-/// `(score, σ, work)`, the work in multiply-adds.
-fn row_score(t: &Tables, v: &[f64], w: &[f64], a: usize, kept: &[u32], choose: bool) -> (f64, Vec<u32>, f64) {
-    let (n_s, n) = (t.n_states(), v.len() / t.n_states());
-    // The weight of each (observation, next state) that can follow, by observation.
-    let mut after: Vec<Vec<(usize, f64)>> = vec![Vec::new(); kept.len()];
-    let mut score = 0.0;
-    let mut work = 0.0;
-    for (s, &ws) in w.iter().enumerate() {
-        if ws > 0.0 {
-            score += ws * t.expected_reward(s, a);
-            for j in t.outcomes(s, a) {
-                let (s2, o) = t.next[j];
-                after[o as usize].push((s2 as usize, ws * t.prob[j]));
+/// What decision `a` leads to from a node whose states weigh `w`: the weighted expected reward,
+/// the weight of each next state that can follow, by observation, and the work of it in
+/// multiply-adds.
+struct Successors {
+    reward: f64,
+    after: Vec<Vec<(usize, f64)>>,
+    work: f64,
+}
+
+impl Successors {
+    fn of(t: &Tables, w: &[f64], a: usize) -> Successors {
+        let mut after: Vec<Vec<(usize, f64)>> = vec![Vec::new(); t.n_observations()];
+        let (mut reward, mut work) = (0.0, 0.0);
+        for (s, &ws) in w.iter().enumerate() {
+            if ws > 0.0 {
+                reward += ws * t.expected_reward(s, a);
+                for j in t.outcomes(s, a) {
+                    let (s2, o) = t.next[j];
+                    after[o as usize].push((s2 as usize, ws * t.prob[j]));
+                }
+                work += t.outcomes(s, a).len() as f64;
             }
-            work += t.outcomes(s, a).len() as f64;
         }
+        Successors { reward, after, work }
     }
-    let value_at = |row: &[(usize, f64)], q2: usize| -> f64 { row.iter().map(|&(s2, p)| p * v[q2 * n_s + s2]).sum() };
-    let mut to = kept.to_vec();
-    for (y, row) in after.iter().enumerate() {
-        if row.is_empty() {
-            continue;
+
+    /// The score of the row that takes this decision: its reward and discounted value after
+    /// each observation, with the node's successors `kept` or (with `choose`) the best for each
+    /// observation that can follow (the others keep theirs); `(score, σ, work)`, the work counted
+    /// with the successors' own, as for a row scored alone.
+    fn score(&self, t: &Tables, v: &[f64], kept: &[u32], choose: bool) -> (f64, Vec<u32>, f64) {
+        let (n_s, n) = (t.n_states(), v.len() / t.n_states());
+        let value_at =
+            |row: &[(usize, f64)], q2: usize| -> f64 { row.iter().map(|&(s2, p)| p * v[q2 * n_s + s2]).sum() };
+        let (mut score, mut work) = (self.reward, self.work);
+        let mut to = kept.to_vec();
+        for (y, row) in self.after.iter().enumerate() {
+            if row.is_empty() {
+                continue;
+            }
+            let (best, at) = if choose {
+                work += (row.len() * n) as f64;
+                (0..n)
+                    .map(|q2| (value_at(row, q2), q2))
+                    .fold((f64::NEG_INFINITY, 0), |top, x| if x.0 > top.0 { x } else { top })
+            } else {
+                (value_at(row, kept[y] as usize), kept[y] as usize)
+            };
+            score += t.gamma * best;
+            to[y] = at as u32;
         }
-        let (best, at) = if choose {
-            work += (row.len() * n) as f64;
-            (0..n)
-                .map(|q2| (value_at(row, q2), q2))
-                .fold((f64::NEG_INFINITY, 0), |top, x| if x.0 > top.0 { x } else { top })
-        } else {
-            (value_at(row, kept[y] as usize), kept[y] as usize)
-        };
-        score += t.gamma * best;
-        to[y] = at as u32;
+        (score, to, work)
     }
-    (score, to, work)
 }
 
 /// `c` improved node by node until no node's new row raises its exact value by more than
 /// `tolerance`, or `work` multiply-adds are spent (counted, not timed, so the result is the same
-/// on every machine; checked between nodes): the controller and its exact value.
+/// on every machine; checked before each row tried and each pass): the controller and its exact
+/// value.
 pub fn improve(world: &PomdpWorld, c: &Controller, tolerance: f64, work: f64) -> (Controller, f64) {
     let t = world.tables();
     let values = ControllerValue::new(world, tolerance);
@@ -157,13 +175,15 @@ pub fn improve(world: &PomdpWorld, c: &Controller, tolerance: f64, work: f64) ->
                 continue;
             }
             let kept = &c.next[q * y1..q * y1 + n_y];
-            let (now, _, cost) = row_score(t, &v, wq, c.act[q] as usize, kept, false);
+            // Each decision's successors once, for every row that takes it.
+            let by_action: Vec<Successors> = (0..t.n_actions()).map(|a| Successors::of(t, wq, a)).collect();
+            let (now, _, cost) = by_action[c.act[q] as usize].score(t, &v, kept, false);
             spent += cost;
             // For each decision, its best successors, and the node's own kept: a row best by
             // the first order may fail where the next one would have held.
-            for a in 0..t.n_actions() {
+            for (a, successors) in by_action.iter().enumerate() {
                 for choose in [true, false] {
-                    let (score, to, cost) = row_score(t, &v, wq, a, kept, choose);
+                    let (score, to, cost) = successors.score(t, &v, kept, choose);
                     spent += cost;
                     if score > now {
                         rows.push((score - now, q, a, to));
